@@ -1,0 +1,81 @@
+# hdnet: plain Makefile. `make` builds libhdnet.a and the hdnet tool; `make test` runs every test;
+# `make check` runs the tests under AddressSanitizer + UndefinedBehaviorSanitizer; `make bench`
+# prints the benchmark figures; `make demo` runs the main job on the bundled examples.
+
+CC      ?= cc
+PREFIX  ?= /usr/local
+ARCH    ?= -march=x86-64-v3
+OPT     ?= -O2
+CFLAGS  ?= $(OPT) $(ARCH)
+CFLAGS  += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -Wall -Wextra -fopenmp -Iinclude -Isrc
+LDLIBS  += -lpng -ljpeg -lz -lcjson -lopenblas -lm -fopenmp -lpthread
+# oneDNN is the fast convolution path; `make HD_DNNL=0` builds the portable path only.
+HD_DNNL ?= $(shell test -f /usr/include/dnnl.h && echo 1 || echo 0)
+ifeq ($(HD_DNNL),1)
+CFLAGS  += -DHD_HAVE_DNNL=1
+LDLIBS  += -ldnnl
+endif
+
+BUILD   ?= build
+SRC     := $(sort $(wildcard src/*/*.c))
+OBJ     := $(SRC:%.c=$(BUILD)/%.o)
+TOOLSRC := $(sort $(wildcard tools/*.c))
+TOOLOBJ := $(TOOLSRC:%.c=$(BUILD)/%.o)
+TESTSRC := $(sort $(wildcard tests/test_*.c))
+TESTBIN := $(TESTSRC:tests/%.c=$(BUILD)/tests/%)
+HDR     := $(wildcard include/*.h src/*/*.h tools/*.h tests/*.h)
+
+all: hdnet
+
+hdnet: $(BUILD)/hdnet
+	ln -sf $(BUILD)/hdnet hdnet
+
+$(BUILD)/libhdnet.a: $(OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@ && ar rcs $@ $^
+
+$(BUILD)/%.o: %.c $(HDR) $(BUILD)/commands.inc
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -I$(BUILD) -c $< -o $@
+
+# Every tools/cmd_*.c registers itself with a line HD_COMMAND("name", fn, "summary").
+$(BUILD)/commands.inc: $(TOOLSRC)
+	@mkdir -p $(dir $@)
+	cat /dev/null $(wildcard tools/cmd_*.c) | grep '^HD_COMMAND(' > $@.tmp; mv $@.tmp $@
+
+$(BUILD)/hdnet: $(TOOLOBJ) $(BUILD)/libhdnet.a
+	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+
+$(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -Itests -o $@ $< $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+
+tests: $(TESTBIN) $(BUILD)/hdnet
+
+# Runs each C test, then each shell test (which drive the built hdnet tool), stopping at the first failure.
+test: tests
+	@HDNET=$(abspath $(BUILD)/hdnet) BUILD=$(abspath $(BUILD)) sh tests/run.sh $(abspath $(TESTBIN))
+
+check:
+	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
+	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
+
+bench: hdnet
+	./hdnet bench
+
+demo: hdnet
+	sh examples/demo.sh
+
+install: hdnet
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/share/hdnet
+	install -m 755 $(BUILD)/hdnet $(DESTDIR)$(PREFIX)/bin/hdnet
+	install -m 644 $(BUILD)/libhdnet.a $(DESTDIR)$(PREFIX)/lib/libhdnet.a
+	install -m 644 include/hdnet.h $(DESTDIR)$(PREFIX)/include/hdnet.h
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBS@|$(LDLIBS)|' hdnet.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/hdnet.pc
+	if [ -d models ]; then cp -r models/. $(DESTDIR)$(PREFIX)/share/hdnet/; fi
+
+clean:
+	rm -rf build build-check hdnet
+
+.PHONY: all hdnet tests test check bench demo install clean
+.SECONDARY:

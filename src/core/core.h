@@ -1,0 +1,87 @@
+/* core.h: internal services every part of the library shares: error reporting, arenas, the
+ * seeded RNG, atomic file writes, checked size arithmetic, timing and progress lines. */
+#ifndef HD_CORE_H
+#define HD_CORE_H
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stddef.h>
+#include "hdnet.h"
+
+/* ---- errors: set the thread's reason and return the code, e.g.
+ *      return hd_fail(HD_ERR_FORMAT, "%s: truncated PNG", path); */
+hd_status hd_fail(hd_status code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+void hd_clear_error(void);
+
+/* ---- checked size arithmetic: return 0 on overflow (and leave *out untouched). */
+int hd_mul_size(size_t a, size_t b, size_t *out);
+int hd_mul3_size(size_t a, size_t b, size_t c, size_t *out);
+
+/* ---- allocation that reports: NULL and an HD_ERR_NOMEM reason on failure. */
+void *hd_malloc(size_t bytes);
+void *hd_calloc(size_t count, size_t size);
+
+/* ---- arena: one block per role, carved in order, 64-byte aligned, freed at once. */
+typedef struct hd_arena {
+    unsigned char *base;
+    size_t size, used;
+} hd_arena;
+hd_status hd_arena_init(hd_arena *a, size_t bytes);
+/* Carves `count` floats; NULL (with reason) when the arena is full. */
+float *hd_arena_floats(hd_arena *a, size_t count);
+void hd_arena_reset(hd_arena *a);
+void hd_arena_free(hd_arena *a);
+
+/* ---- RNG: PCG32 (O'Neill), seeded, with its whole state in two words so that a checkpoint can
+ * save and restore it exactly. */
+typedef struct hd_rng {
+    uint64_t state, inc;
+} hd_rng;
+void hd_rng_seed(hd_rng *r, uint64_t seed, uint64_t stream);
+uint32_t hd_rng_u32(hd_rng *r);
+/* Uniform in [0, 1). */
+float hd_rng_uniform(hd_rng *r);
+/* Uniform in [lo, hi). */
+float hd_rng_range(hd_rng *r, float lo, float hi);
+/* Standard normal (Box-Muller, two draws per call, nothing cached). */
+float hd_rng_normal(hd_rng *r);
+/* Uniform integer in [0, n). */
+uint32_t hd_rng_below(hd_rng *r, uint32_t n);
+
+/* ---- atomic files: write to "<path>.tmp.<pid>", fsync, rename over path. */
+typedef struct hd_atomic_file {
+    FILE *f;
+    char *path, *tmp_path;
+} hd_atomic_file;
+hd_status hd_atomic_open(hd_atomic_file *af, const char *path);
+/* Flushes, fsyncs and renames; on any failure removes the temporary file. */
+hd_status hd_atomic_commit(hd_atomic_file *af);
+/* Abandons the write: closes and removes the temporary file. */
+void hd_atomic_abort(hd_atomic_file *af);
+/* Reads a whole file (at most max_bytes) into a NUL-terminated buffer. */
+hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size);
+
+/* ---- time and progress */
+double hd_seconds(void); /* monotonic */
+/* A progress reporter: on a terminal one rewritten line with rate and time left; otherwise a
+ * plain log line at most every `log_every` seconds (and at the end). */
+typedef struct hd_progress {
+    const char *label;
+    long total;
+    double start, last_print, log_every;
+    int tty;
+} hd_progress;
+void hd_progress_start(hd_progress *p, const char *label, long total);
+/* done = items finished so far; extra = a short text shown after the rate (may be NULL). */
+void hd_progress_update(hd_progress *p, long done, const char *extra);
+void hd_progress_finish(hd_progress *p, long done, const char *extra);
+
+/* ---- paths */
+/* Joins dir and name with one '/'; result is malloc'ed (NULL with reason on failure). */
+char *hd_path_join(const char *dir, const char *name);
+/* Creates a directory and its parents (like mkdir -p). */
+hd_status hd_mkdirs(const char *path);
+/* 1 if path is a directory. */
+int hd_is_dir(const char *path);
+
+#endif /* HD_CORE_H */

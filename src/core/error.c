@@ -1,0 +1,43 @@
+/* error.c: the thread-local failure reason behind hd_error(), and the thread-count setting. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <omp.h>
+#include "core/core.h"
+
+static _Thread_local char error_text[1024];
+
+hd_status hd_fail(hd_status code, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(error_text, sizeof error_text, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+void hd_clear_error(void) { error_text[0] = '\0'; }
+
+const char *hd_error(void) { return error_text; }
+
+const char *hd_status_name(hd_status status)
+{
+    switch (status) {
+    case HD_OK: return "ok";
+    case HD_ERR_IO: return "i/o error";
+    case HD_ERR_FORMAT: return "format error";
+    case HD_ERR_RANGE: return "out of range";
+    case HD_ERR_NOMEM: return "out of memory";
+    case HD_ERR_ARG: return "invalid argument";
+    case HD_ERR_NUMERIC: return "not a finite number";
+    case HD_ERR_INTERRUPTED: return "interrupted";
+    case HD_ERR_NOTFOUND: return "not found";
+    }
+    return "unknown status";
+}
+
+void hd_set_threads(int threads)
+{
+    if (threads > 0) omp_set_num_threads(threads);
+}
+
+int hd_threads(void) { return omp_get_max_threads(); }

@@ -1,0 +1,162 @@
+/* files.c: atomic writes (temporary file, fsync, rename), whole-file reads and path helpers. */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include "core/core.h"
+
+static char *dup_string(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = hd_malloc(n);
+    if (d) memcpy(d, s, n);
+    return d;
+}
+
+hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
+{
+    memset(af, 0, sizeof *af);
+    size_t n = strlen(path) + 64;
+    af->path = dup_string(path);
+    af->tmp_path = hd_malloc(n);
+    if (!af->path || !af->tmp_path) {
+        free(af->path);
+        free(af->tmp_path);
+        return HD_ERR_NOMEM;
+    }
+    snprintf(af->tmp_path, n, "%s.tmp.%ld", path, (long)getpid());
+    af->f = fopen(af->tmp_path, "wb");
+    if (!af->f) {
+        hd_status st = hd_fail(HD_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
+        free(af->path);
+        free(af->tmp_path);
+        af->path = af->tmp_path = NULL;
+        return st;
+    }
+    return HD_OK;
+}
+
+static void atomic_release(hd_atomic_file *af)
+{
+    free(af->path);
+    free(af->tmp_path);
+    af->path = af->tmp_path = NULL;
+    af->f = NULL;
+}
+
+void hd_atomic_abort(hd_atomic_file *af)
+{
+    if (af->f) fclose(af->f);
+    if (af->tmp_path) remove(af->tmp_path);
+    atomic_release(af);
+}
+
+hd_status hd_atomic_commit(hd_atomic_file *af)
+{
+    int failed = ferror(af->f) || fflush(af->f) != 0 || fsync(fileno(af->f)) != 0;
+    int err = errno;
+    if (fclose(af->f) != 0 && !failed) {
+        failed = 1;
+        err = errno;
+    }
+    af->f = NULL;
+    if (!failed && rename(af->tmp_path, af->path) != 0) {
+        failed = 1;
+        err = errno;
+    }
+    if (failed) {
+        hd_status st = hd_fail(HD_ERR_IO, "%s: write failed: %s", af->path, strerror(err));
+        remove(af->tmp_path);
+        atomic_release(af);
+        return st;
+    }
+    atomic_release(af);
+    return HD_OK;
+}
+
+hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size)
+{
+    *data = NULL;
+    *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    size_t cap = max_bytes < 4096 ? max_bytes : 4096, len = 0;
+    char *buf = hd_malloc(cap + 1);
+    if (!buf) {
+        fclose(f);
+        return HD_ERR_NOMEM;
+    }
+    for (;;) {
+        if (len == cap) {
+            if (cap >= max_bytes) {
+                if (fgetc(f) == EOF) break;
+                free(buf);
+                fclose(f);
+                return hd_fail(HD_ERR_RANGE, "%s: larger than %zu bytes", path, max_bytes);
+            }
+            size_t ncap = cap * 2 > max_bytes ? max_bytes : cap * 2;
+            char *nb = realloc(buf, ncap + 1);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return hd_fail(HD_ERR_NOMEM, "%s: out of memory reading", path);
+            }
+            buf = nb;
+            cap = ncap;
+        }
+        size_t got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0) break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return hd_fail(HD_ERR_IO, "%s: read error", path);
+    }
+    buf[len] = '\0';
+    *data = buf;
+    *size = len;
+    return HD_OK;
+}
+
+char *hd_path_join(const char *dir, const char *name)
+{
+    size_t a = strlen(dir), b = strlen(name);
+    char *p = hd_malloc(a + b + 2);
+    if (!p) return NULL;
+    memcpy(p, dir, a);
+    size_t k = a;
+    if (a > 0 && dir[a - 1] != '/') p[k++] = '/';
+    memcpy(p + k, name, b + 1);
+    return p;
+}
+
+int hd_is_dir(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
+hd_status hd_mkdirs(const char *path)
+{
+    char *p = dup_string(path);
+    if (!p) return HD_ERR_NOMEM;
+    for (char *s = p + 1;; s++) {
+        if (*s == '/' || *s == '\0') {
+            char c = *s;
+            *s = '\0';
+            if (mkdir(p, 0777) != 0 && errno != EEXIST) {
+                hd_status st = hd_fail(HD_ERR_IO, "%s: cannot create directory: %s", p, strerror(errno));
+                free(p);
+                return st;
+            }
+            *s = c;
+            if (c == '\0') break;
+        }
+    }
+    int ok = hd_is_dir(path);
+    free(p);
+    return ok ? HD_OK : hd_fail(HD_ERR_IO, "%s: exists and is not a directory", path);
+}

@@ -1,0 +1,58 @@
+/* main.c: the hdnet command: dispatches `hdnet <command> [options]` to the registered commands. */
+#include <stdio.h>
+#include <string.h>
+#include "cli.h"
+
+#include "commands.inc"
+
+#undef HD_COMMAND
+#define HD_COMMAND(name, fn, summary) {name, fn, summary},
+
+typedef struct command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} command;
+
+static const command commands[] = {
+#include "commands.inc"
+};
+
+static void print_help(FILE *out)
+{
+    fprintf(out, "usage: hdnet <command> [options]\n\n"
+                 "Face inverse rendering and relighting (HD-Net) in plain C.\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(out, "  %-16s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "  %-16s %s\n", "help", "this list; `hdnet <command> --help` for one command");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        print_help(stderr);
+        return HD_EXIT_USAGE;
+    }
+    const char *name = argv[1];
+    if (strcmp(name, "help") == 0 || strcmp(name, "--help") == 0 || strcmp(name, "-h") == 0) {
+        if (argc > 2) {
+            for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+                if (strcmp(commands[i].name, argv[2]) == 0) {
+                    char *help_argv[] = {argv[2], "--help", NULL};
+                    return commands[i].run(2, help_argv);
+                }
+            fprintf(stderr, "hdnet: unknown command '%s'\n", argv[2]);
+            return HD_EXIT_USAGE;
+        }
+        print_help(stdout);
+        return HD_EXIT_OK;
+    }
+    if (strcmp(name, "--version") == 0) {
+        printf("hdnet 0.1.0\n");
+        return HD_EXIT_OK;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (strcmp(commands[i].name, name) == 0) return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "hdnet: unknown command '%s' (see: hdnet help)\n", name);
+    return HD_EXIT_USAGE;
+}
