@@ -162,7 +162,37 @@ hd_status hd_light_preset(int k, float light[HD_SH_COEFFS]);
 hd_status hd_light_sphere(const float light[HD_SH_COEFFS], int size, hd_image *out);
 
 /* ---------------------------------------------------------------- the model (src/model) */
-/* Declared by the HD-Net issue. */
+
+typedef struct hd_model hd_model;
+
+/* Loads a model (safetensors, SPEC section 6); checks every tensor's name and shape against the
+ * configuration in its metadata. path NULL loads the shipped default (models/hdnet-synth.safetensors
+ * found with the data search path). */
+hd_status hd_model_load(const char *path, hd_model **model);
+void hd_model_free(hd_model *model);
+int hd_model_size(const hd_model *model);  /* input side (a multiple of 32) */
+int hd_model_width(const hd_model *model); /* Common-Net width */
+
+typedef struct hd_decomposition {
+    hd_image albedo;         /* 3 channels in [0, 1] */
+    hd_image shading;        /* 1 channel, >= 0 */
+    hd_image normal;         /* 3 channels, unit camera-frame vectors */
+    hd_image reconstruction; /* albedo * shading */
+    float light[HD_SH_COEFFS];
+} hd_decomposition;
+
+/* Decomposes `count` aligned face images (3 channels, any size: each is resized to the model
+ * size). Results are at the model size; out[i] is filled for images[i]. */
+hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count, hd_decomposition *out);
+void hd_decomposition_free(hd_decomposition *d);
+
+/* ---------------------------------------------------------------- relighting (src/apply) */
+
+/* ---------------------------------------------------------------- synthetic faces (src/synth) */
+
+/* ---------------------------------------------------------------- evaluation (src/eval) */
+
+/* ---------------------------------------------------------------- photo alignment (src/align) */
 
 #ifdef __cplusplus
 }

@@ -83,5 +83,9 @@ char *hd_path_join(const char *dir, const char *name);
 hd_status hd_mkdirs(const char *path);
 /* 1 if path is a directory. */
 int hd_is_dir(const char *path);
+/* Finds a data file shipped with hdnet (the canonical mesh, face models, the default model):
+ * looks in $HDNET_DATA, then beside the executable (../models, ../share/hdnet), then ./models.
+ * Returns a malloc'ed path, or NULL with an HD_ERR_NOTFOUND reason listing where it looked. */
+char *hd_find_data(const char *name);
 
 #endif /* HD_CORE_H */

@@ -1,0 +1,36 @@
+/* mesh.h: the canonical face mesh (MediaPipe's 468 vertices, UVs with v down, 898 triangles):
+ * loading the OBJ, rasterising its UV layout into a texture grid, and vertex normals. The
+ * synthetic generator and the photo alignment both stand on this. */
+#ifndef HD_MESH_H
+#define HD_MESH_H
+
+#include "hdnet.h"
+
+typedef struct hd_mesh {
+    int nv, nt;
+    float *pos; /* (nv, 3): x right, y up, z toward the viewer (cm in the OBJ) */
+    float *uv;  /* (nv, 2): u right, v down, in [0, 1] */
+    int *tri;   /* (nt, 3): 0-based vertex indices, counter-clockwise seen from the front */
+} hd_mesh;
+
+/* Loads an OBJ with v, vt and f lines (vertex i uses vt i). */
+hd_status hd_mesh_load_obj(const char *path, hd_mesh *mesh);
+/* Loads the canonical mesh shipped with hdnet (found with hd_find_data). */
+hd_status hd_mesh_load_canonical(hd_mesh *mesh);
+void hd_mesh_free(hd_mesh *mesh);
+
+/* For each texel centre ((x + 0.5) / size, (y + 0.5) / size) of a size x size UV map: the index
+ * of the triangle that covers it in UV space (-1 if none) and its barycentric weights. */
+typedef struct hd_uv_raster {
+    int size;
+    int *tri;    /* (size * size) */
+    float *bary; /* (size * size, 3) */
+} hd_uv_raster;
+hd_status hd_mesh_uv_raster(const hd_mesh *mesh, int size, hd_uv_raster *raster);
+void hd_uv_raster_free(hd_uv_raster *raster);
+
+/* Area-weighted, unit vertex normals (nv, 3) of positions pos (nv, 3) with the mesh's triangles
+ * (outward for counter-clockwise triangles). */
+void hd_mesh_vertex_normals(const hd_mesh *mesh, const float *pos, float *normals);
+
+#endif /* HD_MESH_H */
