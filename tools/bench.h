@@ -1,0 +1,22 @@
+/* bench.h: what `hdnet bench` measures, shared between the engine part (tools/cmd_bench.c: SGEMM
+ * peak, per-layer convolutions, Common-Net) and the whole-network part (tools/bench_hdnet.c:
+ * HD-Net forward per image, training step per pair, peak memory) and the alignment part
+ * (tools/bench_align.c: alignment time per photo). */
+#ifndef HD_BENCH_H
+#define HD_BENCH_H
+
+#include <stdio.h>
+
+typedef struct bench_args {
+    int size, batch, threads, width, json, repeats;
+    double sgemm_peak_gflops; /* measured first by cmd_bench.c */
+    FILE *out;                /* where the human-readable table goes */
+} bench_args;
+
+/* Each section prints its table (or, with json, one JSON object member per figure, as
+ * `"key": value,` lines) and returns 0, or nonzero on failure. A section whose file is not
+ * linked in is skipped (weak symbols). */
+int bench_hdnet(const bench_args *a) __attribute__((weak));
+int bench_align(const bench_args *a) __attribute__((weak));
+
+#endif /* HD_BENCH_H */
