@@ -46,9 +46,14 @@ $(BUILD)/commands.inc: $(TOOLSRC)
 $(BUILD)/hdnet: $(TOOLOBJ) $(BUILD)/libhdnet.a
 	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
 
-$(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(HDR)
+$(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(HDR) $(BUILD)/header_example.inc
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) -Itests -o $@ $< $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+	$(CC) $(CFLAGS) -Itests -I$(BUILD) -o $@ $< $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+
+# The usage example in the opening comment of include/hdnet.h, extracted so a test compiles and runs it.
+$(BUILD)/header_example.inc: include/hdnet.h
+	@mkdir -p $(dir $@)
+	sed -n '/^ \* Example/,/^ \*\//p' $< | sed -e '1d' -e '$$d' -e 's/^ \*     //' -e 's/^ \*$$//' | grep -v '^#include' > $@.tmp && mv $@.tmp $@
 
 tests: $(TESTBIN) $(BUILD)/hdnet
 

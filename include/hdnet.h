@@ -14,7 +14,7 @@
  *     #include <stdio.h>
  *     #include "hdnet.h"
  *
- *     // Render a face-sized sphere lit from the upper right and fit the light back.
+ *     // Preview a light lit from the upper right on a sphere, and shade two normals with it.
  *     int example(const char *out_png) {
  *         float light[HD_SH_COEFFS];
  *         hd_light_from_direction(45.0f, 30.0f, 1.0f, 0.5f, light);
