@@ -153,7 +153,13 @@ hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask
 hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS]);
 hd_status hd_light_write(const char *path, const float light[HD_SH_COEFFS]);
 /* A gray light of DPR's scale from a direction: azimuth and elevation in degrees (see
- * docs/conventions.md), the directional intensity and the ambient level. */
+ * docs/conventions.md), the directional intensity and the ambient level. The light comes from
+ * d = (cos(el) sin(az), sin(el), cos(el) cos(az)) in the camera frame (azimuth 0, elevation 0 = from
+ * the viewer; positive azimuth toward image right, positive elevation up); the shading is largest
+ * at n = d, where s(d) = ambient + intensity. The defaults below give DPR-like shading
+ * (about 0.44 to 2.0 on the visible hemisphere). */
+#define HD_LIGHT_DEFAULT_INTENSITY 1.5f
+#define HD_LIGHT_DEFAULT_AMBIENT 0.5f
 void hd_light_from_direction(float azimuth_deg, float elevation_deg, float intensity,
                              float ambient, float light[HD_SH_COEFFS]);
 /* Preset k in [0, HD_LIGHT_PRESETS): one light circling the view axis. */

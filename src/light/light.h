@@ -1,0 +1,18 @@
+/* light.h: internals of the spherical-harmonics lighting module shared by its files (the basis
+ * constants of SPEC section 2 and the Lambertian factors they contain). */
+#ifndef HD_LIGHT_H
+#define HD_LIGHT_H
+
+#include "hdnet.h"
+
+/* Basis constants: the real SH normalisations times pi*[1, 2/3, 1/4] (SPEC section 2). */
+#define HD_SH_C0 0.8862269254527579f /* pi       * 0.2820947918 (l = 0) */
+#define HD_SH_C1 1.023326707946488f  /* 2*pi/3   * 0.4886025119 (l = 1) */
+#define HD_SH_C2 0.8580855308097834f /* pi/4     * 1.0925484306 (l = 2, xy yz xz) */
+#define HD_SH_C3 0.2477079561003757f /* pi/4     * 0.3153915653 (l = 2, 3z^2-1) */
+#define HD_SH_C4 0.4290427654048917f /* pi/4     * 0.5462742153 (l = 2, x^2-y^2) */
+
+/* The band (0, 1 or 2) of coefficient k. */
+static inline int hd_sh_band(int k) { return k == 0 ? 0 : k < 4 ? 1 : 2; }
+
+#endif /* HD_LIGHT_H */
