@@ -194,11 +194,167 @@ void hd_decomposition_free(hd_decomposition *d);
 
 /* ---------------------------------------------------------------- relighting (src/apply) */
 
+/* The paper's relighting (docs/usage.md). The final albedo is the input over the predicted
+ * shading, per colour channel: A_final = clamp(I / max(S, HD_SHADING_FLOOR), 0, 1); the relit face
+ * is A_final * max(s(N, l_target), 0), clamped to [0, 1]. The image may be of any size: the
+ * decomposition's shading and normals (at the model size) are resized to it (normals
+ * renormalised). A mask is one channel of any size (resized likewise) or NULL for all ones; the
+ * output is m * relit + (1 - m) * I, so masked-out pixels keep the input. */
+#define HD_SHADING_FLOOR 1e-3f
+
+typedef enum hd_brightness {
+    /* The relit face is scaled by one factor k >= 0 so that the mask-weighted mean over pixels and
+     * channels of clamp(k * relit, 0, 1) equals that of the input (solved through the clamp). */
+    HD_BRIGHTNESS_KEEP = 0,
+    HD_BRIGHTNESS_FREE /* the target light's own level */
+} hd_brightness;
+
+/* A_final at the image's size (3 channels); image is 3 channels. */
+hd_status hd_relight_albedo(const hd_image *image, const hd_decomposition *d, hd_image *albedo);
+/* Relights image (decomposed as d) under light; out is allocated at the image's size. */
+hd_status hd_relight(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
+                     const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
+/* The albedo under flat light (s = 1): m * A_final + (1 - m) * I. No brightness matching. */
+hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_image *mask, hd_image *out);
+/* Relights image under the light estimated for a reference face (ref->light). */
+hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
+                      const hd_decomposition *ref, hd_brightness brightness, hd_image *out);
+
+/* The same with a model: each decomposes its aligned face texture(s) one at a time, then calls
+ * the function above (texture in, texture out; the cores of the hdnet commands). */
+hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image *mask,
+                          const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
+hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out);
+hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_image *mask,
+                           const hd_image *ref, hd_brightness brightness, hd_image *out);
+/* The light the model estimates for a face (L-Net's output). */
+hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
+
+/* The mask of a face image: its companion NAME.mask.png beside the image (NAME = the file name
+ * without its last extension) if present, else fallback (a path, may be NULL), else all ones; one
+ * channel resized to width x height. *source (may be NULL) receives the path used, malloc'ed
+ * (NULL for all ones). */
+hd_status hd_face_mask_read(const char *image_path, const char *fallback, int width, int height,
+                            hd_image *mask, char **source);
+
+/* Contact sheets: a grid of square cells separated by plain borders, written as an 8-bit RGB PNG.
+ * Each picture is resized to the cell (area down, bilinear up). */
+typedef enum hd_sheet_kind {
+    HD_SHEET_PICTURE = 0, /* values as stored; 1 channel shown gray, 2 (gray + alpha) as gray */
+    HD_SHEET_NORMAL,      /* unit normals shown as (n + 1) / 2, zero vectors black */
+    HD_SHEET_SHADING      /* shading shown as s / 2 (1 channel) */
+} hd_sheet_kind;
+
+typedef struct hd_sheet {
+    int rows, columns, cell, border;
+    hd_image canvas; /* 3 channels, (columns * (cell + border) + border) wide */
+} hd_sheet;
+
+hd_status hd_sheet_init(hd_sheet *sheet, int rows, int columns, int cell, int border);
+hd_status hd_sheet_put(hd_sheet *sheet, int row, int column, const hd_image *picture, hd_sheet_kind kind);
+/* Fills columns 0..4 of row with input | albedo | shading | normal | reconstruction. */
+hd_status hd_sheet_put_decomposition(hd_sheet *sheet, int row, const hd_image *input,
+                                     const hd_decomposition *d);
+hd_status hd_sheet_write(const hd_sheet *sheet, const char *path);
+void hd_sheet_free(hd_sheet *sheet);
+
 /* ---------------------------------------------------------------- synthetic faces (src/synth) */
 
 /* ---------------------------------------------------------------- evaluation (src/eval) */
 
 /* ---------------------------------------------------------------- photo alignment (src/align) */
+
+/* From a photograph to the aligned texture space of SPEC section 2 and back (docs/alignment.md).
+ *
+ * Frames. Photo coordinates are continuous pixels: x right, y down, pixel (i, j) covers
+ * [i, i+1) x [j, j+1), so its centre is (i + 0.5, j + 0.5). Landmarks are the 468 vertices of the
+ * canonical mesh as found in the photo: (x, y) in photo coordinates and a depth z in the same
+ * units as x; which way z points is found by the fit (see depth_sign). Texture coordinates are
+ * the canonical mesh's UVs (u right, v down) scaled to the texture side S, texel (x, y) centred
+ * at ((x + 0.5) / S, (y + 0.5) / S). Normals are in the camera frame (x right, y up, z toward the
+ * viewer). */
+
+#define HD_FACE_LANDMARKS 468
+
+typedef struct hd_aligned_face {
+    int size;          /* texture side S */
+    hd_image texture;  /* 3 x S x S: the photo unwarped (0 outside the mesh's UV layout) */
+    hd_image mask;     /* 1 x S x S: 1 where the texel is inside the mesh, on a triangle facing
+                        * the camera, not hidden by another part of the face, its normal has
+                        * z > 0 and it falls inside the photo; else 0 */
+    hd_image normal;   /* 3 x S x S: coarse normals, unit, camera frame; 0 where mask is 0 */
+    float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
+    int photo_width, photo_height;         /* the photo the face was found in */
+    float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
+    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates */
+    /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
+     * taken to the camera frame as c = (x, -y, depth_sign * z):
+     *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */
+    float scale, rotation[9], translation[3];
+    float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
+    float fit_rms;     /* root-mean-square residual of the fit, in pixels */
+} hd_aligned_face;
+
+/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
+ * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
+ * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
+ * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
+ * landmarks. The face owns its images: free with hd_aligned_face_free. */
+hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
+                        hd_aligned_face *face);
+/* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
+ * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
+ * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
+hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+void hd_aligned_face_free(hd_aligned_face *face);
+void hd_aligned_faces_free(hd_aligned_face *faces, int count);
+
+/* Writes dir/<stem>.png (texture, 8 bit), <stem>.mask.png (8 bit), <stem>.normal.png (16 bit,
+ * SPEC section 2 encoding), <stem>.landmarks.txt (468 lines "x y z") and <stem>.warp.txt (every
+ * field of the face but the images: what hd_warp_back needs). Each file is written atomically. */
+hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem);
+/* Reads a .warp.txt file into `face` (images left empty: size, landmarks, photo size, fit).
+ * Errors name the file and the line. */
+hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
+
+/* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
+ * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
+ * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
+ * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask may be NULL:
+ * face->mask, resized, is used; if that is empty too, every texel). *warped gets the texture's
+ * channels, *coverage 1 channel: 1 where the pixel received a face value, else 0 (and warped 0). */
+hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
+                       hd_image *warped, hd_image *coverage);
+
+/* What the Poisson solver did, per channel (up to 4). */
+typedef struct hd_poisson_report {
+    int unknowns;            /* pixels solved for */
+    int channels;
+    int iterations[4];       /* conjugate-gradient iterations */
+    double residual[4];      /* final relative residual |b - A f| / |b| */
+    double tolerance;        /* the tolerance asked for */
+    double seconds;
+} hd_poisson_report;
+
+#define HD_POISSON_TOLERANCE 1e-4
+
+/* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
+ * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
+ * lie strictly inside the target, solves  Laplacian(f) = Laplacian(source)  with f = target on
+ * the region's boundary (5-point stencil, source differences as the guidance field), in place in
+ * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
+ * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
+ * HD_ERR_NUMERIC if the solver cannot reach the tolerance. report may be NULL. */
+hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
+                           double tolerance, hd_image *target, hd_poisson_report *report);
+
+/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side) back into
+ * `photo` (the photo the face came from, same size, 3 channels) and blends it in with
+ * hd_poisson_blend over the warped region shrunk by one pixel, so that outside the face the
+ * photo is untouched and no seam shows. report may be NULL. */
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_image *photo,
+                             hd_poisson_report *report);
+
 
 #ifdef __cplusplus
 }
