@@ -1,0 +1,110 @@
+/* image_jpeg.c: JPEG reading through libjpeg(-turbo): gray and RGB (YCbCr decoded to RGB); CMYK
+ * and other colour spaces are refused. libjpeg's fatal errors come to our error_exit, which
+ * records the message and longjmps back; its warnings (corrupt or truncated data, which libjpeg
+ * would otherwise paper over with gray) are collected and turned into an error at the end. */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <jpeglib.h>
+#include "core/core.h"
+#include "io/image_io.h"
+
+typedef struct jpeg_context {
+    struct jpeg_error_mgr mgr; /* first, so the error manager pointer is the context */
+    jmp_buf jump;
+    char reason[JMSG_LENGTH_MAX + 32];
+    int warnings;
+    char warning[JMSG_LENGTH_MAX];
+} jpeg_context;
+
+static void jpeg_on_error_exit(j_common_ptr cinfo)
+{
+    jpeg_context *ctx = (jpeg_context *)cinfo->err;
+    (*cinfo->err->format_message)(cinfo, ctx->reason);
+    longjmp(ctx->jump, 1);
+}
+
+/* level < 0: a warning (corrupt data); level >= 0: trace messages, ignored. */
+static void jpeg_on_message(j_common_ptr cinfo, int level)
+{
+    jpeg_context *ctx = (jpeg_context *)cinfo->err;
+    if (level >= 0) return;
+    if (ctx->warnings++ == 0) (*cinfo->err->format_message)(cinfo, ctx->warning);
+}
+
+hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *info)
+{
+    memset(img, 0, sizeof *img);
+    FILE *f = fopen(path, "rb");
+    if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct jpeg_decompress_struct cinfo;
+    jpeg_context ctx;
+    memset(&ctx, 0, sizeof ctx);
+    cinfo.err = jpeg_std_error(&ctx.mgr);
+    ctx.mgr.error_exit = jpeg_on_error_exit;
+    ctx.mgr.emit_message = jpeg_on_message;
+    JSAMPLE *volatile row = NULL;
+    hd_status volatile st = HD_OK;
+    if (setjmp(ctx.jump)) {
+        free(row);
+        hd_image_free(img);
+        jpeg_destroy_decompress(&cinfo);
+        fclose(f);
+        if (st != HD_OK) return st;
+        return hd_fail(HD_ERR_FORMAT, "%s: bad JPEG: %s", path, ctx.reason);
+    }
+    jpeg_create_decompress(&cinfo);
+    jpeg_stdio_src(&cinfo, f);
+    jpeg_read_header(&cinfo, TRUE);
+    if (cinfo.jpeg_color_space == JCS_CMYK || cinfo.jpeg_color_space == JCS_YCCK) {
+        st = hd_fail(HD_ERR_FORMAT, "%s: unsupported JPEG: CMYK colour (only gray and RGB are read)", path);
+        longjmp(ctx.jump, 1);
+    }
+    if (cinfo.num_components != 1 && cinfo.num_components != 3) {
+        st = hd_fail(HD_ERR_FORMAT, "%s: unsupported JPEG: %d colour components (only gray and RGB "
+                     "are read)", path, cinfo.num_components);
+        longjmp(ctx.jump, 1);
+    }
+    cinfo.out_color_space = cinfo.num_components == 1 ? JCS_GRAYSCALE : JCS_RGB;
+    if (hd_image_check_dims(path, (long)cinfo.image_width, (long)cinfo.image_height, 3) != HD_OK) {
+        st = HD_ERR_RANGE;
+        longjmp(ctx.jump, 1);
+    }
+    jpeg_start_decompress(&cinfo);
+    int width = (int)cinfo.output_width, height = (int)cinfo.output_height;
+    int channels = cinfo.output_components;
+    if (hd_image_alloc(img, width, height, channels) != HD_OK ||
+        !(row = malloc((size_t)width * channels * sizeof(JSAMPLE)))) {
+        st = hd_fail(HD_ERR_NOMEM, "%s: out of memory for a %dx%d image", path, width, height);
+        longjmp(ctx.jump, 1);
+    }
+    size_t plane = (size_t)width * height;
+    while (cinfo.output_scanline < cinfo.output_height) {
+        int y = (int)cinfo.output_scanline;
+        JSAMPROW rows[1] = {row};
+        if (jpeg_read_scanlines(&cinfo, rows, 1) != 1) {
+            snprintf(ctx.reason, sizeof ctx.reason, "no scanline %d", y);
+            longjmp(ctx.jump, 1);
+        }
+        for (int x = 0; x < width; x++)
+            for (int c = 0; c < channels; c++)
+                img->data[c * plane + (size_t)y * width + x] = (float)row[x * channels + c] / 255.0f;
+    }
+    jpeg_finish_decompress(&cinfo);
+    if (ctx.warnings > 0) {
+        snprintf(ctx.reason, sizeof ctx.reason, "corrupt data: %s", ctx.warning);
+        longjmp(ctx.jump, 1);
+    }
+    info->format = "JPEG";
+    info->width = width;
+    info->height = height;
+    info->channels = channels;
+    info->bits = 8;
+    info->palette = 0;
+    free(row);
+    jpeg_destroy_decompress(&cinfo);
+    fclose(f);
+    return HD_OK;
+}

@@ -1,0 +1,426 @@
+/* test_image.c: image I/O and resampling. PNG 8/16-bit round trips for 1-4 channels (exact to
+ * the quantisation step); palette (with and without tRNS) and gray+alpha PNGs written here with
+ * libpng directly; a JPEG written here with libjpeg; PFM bit-exact; channel conversion; resize
+ * (constant stays constant, area down equals block means, bilinear up of a ramp is linear);
+ * normal-map encode/decode; and errors on bad input. */
+#include <math.h>
+#include <png.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <jpeglib.h>
+#include <unistd.h>
+#include "test.h"
+#include "core/core.h"
+
+static void fill_random(hd_image *img, hd_rng *rng)
+{
+    size_t n = (size_t)img->width * img->height * img->channels;
+    for (size_t i = 0; i < n; i++) img->data[i] = hd_rng_uniform(rng);
+}
+
+static float quantised(float v, float maxval) { return roundf(v * maxval) / maxval; }
+
+static void test_png_round_trips(void)
+{
+    hd_rng rng;
+    hd_rng_seed(&rng, 1, 1);
+    for (int bits = 8; bits <= 16; bits += 8)
+        for (int c = 1; c <= 4; c++) {
+            hd_image img = {0}, back = {0};
+            CHECK(hd_image_alloc(&img, 13, 7, c) == HD_OK);
+            fill_random(&img, &rng);
+            img.data[0] = -0.5f; /* clamped to 0 */
+            img.data[1] = 1.5f;  /* clamped to 1 */
+            char name[64];
+            snprintf(name, sizeof name, "rt%d_%d.png", bits, c);
+            CHECK(hd_image_write_png(name, &img, bits) == HD_OK);
+            hd_image_info info;
+            CHECK(hd_image_read_info(name, &back, &info) == HD_OK);
+            CHECK(back.width == 13 && back.height == 7 && back.channels == c);
+            CHECK(info.bits == bits && strcmp(info.format, "PNG") == 0);
+            float maxval = bits == 8 ? 255.0f : 65535.0f;
+            double worst = 0;
+            for (size_t i = 0; i < (size_t)13 * 7 * c; i++) {
+                float want = quantised(fminf(fmaxf(img.data[i], 0.0f), 1.0f), maxval);
+                double e = fabs(back.data[i] - want);
+                if (e > worst) worst = e;
+            }
+            CHECK_NEAR(worst, 0.0, 1e-7);
+            hd_image_free(&img);
+            hd_image_free(&back);
+        }
+    /* A failed write leaves nothing behind. */
+    hd_image img = {0};
+    CHECK(hd_image_alloc(&img, 2, 2, 3) == HD_OK);
+    CHECK(hd_image_write_png("no_such_dir/x.png", &img, 8) != HD_OK);
+    CHECK(strstr(hd_error(), "no_such_dir/x.png") != NULL);
+    CHECK(hd_image_write_png("bad_bits.png", &img, 12) == HD_ERR_ARG);
+    CHECK(access("bad_bits.png", F_OK) != 0);
+    hd_image_free(&img);
+}
+
+/* Writes a PNG with libpng directly: color_type and bit_depth as given, rows of bytes. */
+static void write_raw_png(const char *path, int w, int h, int color_type, int bit_depth,
+                          const png_color *palette, int npalette, const png_byte *trns, int ntrns,
+                          const png_byte *pixels, size_t rowbytes)
+{
+    FILE *f = fopen(path, "wb");
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(png);
+    if (setjmp(png_jmpbuf(png))) {
+        CHECK(!"libpng failed writing the test image");
+        fclose(f);
+        return;
+    }
+    png_init_io(png, f);
+    png_set_IHDR(png, info, w, h, bit_depth, color_type, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    if (palette) png_set_PLTE(png, info, palette, npalette);
+    if (trns) png_set_tRNS(png, info, trns, ntrns, NULL);
+    png_write_info(png, info);
+    for (int y = 0; y < h; y++) png_write_row(png, pixels + (size_t)y * rowbytes);
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    fclose(f);
+}
+
+static void test_png_variants(void)
+{
+    const png_color palette[3] = {{255, 0, 0}, {0, 128, 0}, {10, 20, 30}};
+    const png_byte idx[6] = {0, 1, 2, 2, 1, 0}; /* 3x2, 8-bit indices */
+    hd_image img = {0};
+    hd_image_info info;
+    write_raw_png("pal.png", 3, 2, PNG_COLOR_TYPE_PALETTE, 8, palette, 3, NULL, 0, idx, 3);
+    CHECK(hd_image_read_info("pal.png", &img, &info) == HD_OK);
+    CHECK(img.channels == 3 && info.palette == 1);
+    if (img.channels == 3) {
+        size_t np = 6;
+        CHECK_NEAR(img.data[0], 1.0, 0);          /* (0,0) red */
+        CHECK_NEAR(img.data[np + 1], 128 / 255.0, 1e-7); /* (1,0) green */
+        CHECK_NEAR(img.data[2 * np + 2], 30 / 255.0, 1e-7); /* (2,0) blue of entry 2 */
+        CHECK_NEAR(img.data[3], 10 / 255.0, 1e-7); /* (0,1) red of entry 2 */
+    }
+    hd_image_free(&img);
+
+    /* Palette with transparency: RGBA. */
+    const png_byte trns[2] = {0, 128};
+    write_raw_png("pal_trns.png", 3, 2, PNG_COLOR_TYPE_PALETTE, 8, palette, 3, trns, 2, idx, 3);
+    CHECK(hd_image_read("pal_trns.png", &img) == HD_OK);
+    CHECK(img.channels == 4);
+    if (img.channels == 4) {
+        size_t np = 6;
+        CHECK_NEAR(img.data[3 * np + 0], 0.0, 0);             /* entry 0: alpha 0 */
+        CHECK_NEAR(img.data[3 * np + 1], 128 / 255.0, 1e-7);  /* entry 1: alpha 128 */
+        CHECK_NEAR(img.data[3 * np + 2], 1.0, 0);             /* entry 2: opaque */
+    }
+    hd_image_free(&img);
+
+    /* 4-bit palette (packed indices) */
+    const png_byte packed[4] = {0x01, 0x20, 0x21, 0x00}; /* 3x2: rows 0,1,2 and 2,1,0 */
+    write_raw_png("pal4.png", 3, 2, PNG_COLOR_TYPE_PALETTE, 4, palette, 3, NULL, 0, packed, 2);
+    CHECK(hd_image_read_info("pal4.png", &img, &info) == HD_OK);
+    CHECK(img.channels == 3 && info.bits == 4);
+    if (img.channels == 3) CHECK_NEAR(img.data[6 + 4], 128 / 255.0, 1e-7); /* (1,1) green */
+    hd_image_free(&img);
+
+    /* 8-bit gray + alpha. */
+    const png_byte ga[8] = {0, 255, 64, 128, 200, 0, 255, 7}; /* 2x2 */
+    write_raw_png("ga.png", 2, 2, PNG_COLOR_TYPE_GRAY_ALPHA, 8, NULL, 0, NULL, 0, ga, 4);
+    CHECK(hd_image_read("ga.png", &img) == HD_OK);
+    CHECK(img.channels == 2);
+    if (img.channels == 2)
+        for (int p = 0; p < 4; p++) {
+            CHECK_NEAR(img.data[p], ga[2 * p] / 255.0, 1e-7);
+            CHECK_NEAR(img.data[4 + p], ga[2 * p + 1] / 255.0, 1e-7);
+        }
+    hd_image_free(&img);
+
+    /* 16-bit gray + alpha (big-endian samples). */
+    const png_byte ga16[8] = {0x12, 0x34, 0xFF, 0xFF, 0xAB, 0xCD, 0x00, 0x01}; /* 2x1 */
+    write_raw_png("ga16.png", 2, 1, PNG_COLOR_TYPE_GRAY_ALPHA, 16, NULL, 0, NULL, 0, ga16, 8);
+    CHECK(hd_image_read("ga16.png", &img) == HD_OK);
+    if (img.channels == 2) {
+        CHECK_NEAR(img.data[0], 0x1234 / 65535.0, 1e-7);
+        CHECK_NEAR(img.data[1], 0xABCD / 65535.0, 1e-7);
+        CHECK_NEAR(img.data[3], 1 / 65535.0, 1e-9);
+    }
+    hd_image_free(&img);
+
+    /* 1-bit gray expands to 0 / 1. */
+    const png_byte bits1[1] = {0xA0}; /* 3x1: 1 0 1 */
+    write_raw_png("g1.png", 3, 1, PNG_COLOR_TYPE_GRAY, 1, NULL, 0, NULL, 0, bits1, 1);
+    CHECK(hd_image_read("g1.png", &img) == HD_OK);
+    if (img.channels == 1) {
+        CHECK_NEAR(img.data[0], 1, 0);
+        CHECK_NEAR(img.data[1], 0, 0);
+        CHECK_NEAR(img.data[2], 1, 0);
+    }
+    hd_image_free(&img);
+
+    /* read_as: gray+alpha to RGB replicates gray and drops alpha; RGB to gray is the luma. */
+    CHECK(hd_image_read_as("ga.png", 3, &img) == HD_OK);
+    CHECK(img.channels == 3);
+    if (img.channels == 3) CHECK_NEAR(img.data[8 + 1], 64 / 255.0, 1e-7);
+    hd_image_free(&img);
+    CHECK(hd_image_read_as("pal.png", 1, &img) == HD_OK);
+    if (img.channels == 1) CHECK_NEAR(img.data[0], 0.299, 1e-6);
+    hd_image_free(&img);
+}
+
+static void test_jpeg(void)
+{
+    const int w = 32, h = 24;
+    unsigned char rgb[32 * 24 * 3];
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            rgb[(y * w + x) * 3 + 0] = (unsigned char)(x * 255 / (w - 1));
+            rgb[(y * w + x) * 3 + 1] = (unsigned char)(y * 255 / (h - 1));
+            rgb[(y * w + x) * 3 + 2] = 100;
+        }
+    struct jpeg_compress_struct cinfo;
+    struct jpeg_error_mgr jerr;
+    cinfo.err = jpeg_std_error(&jerr);
+    jpeg_create_compress(&cinfo);
+    FILE *f = fopen("smooth.jpg", "wb");
+    jpeg_stdio_dest(&cinfo, f);
+    cinfo.image_width = w;
+    cinfo.image_height = h;
+    cinfo.input_components = 3;
+    cinfo.in_color_space = JCS_RGB;
+    jpeg_set_defaults(&cinfo);
+    jpeg_set_quality(&cinfo, 95, TRUE);
+    jpeg_start_compress(&cinfo, TRUE);
+    for (int y = 0; y < h; y++) {
+        JSAMPROW row = rgb + y * w * 3;
+        jpeg_write_scanlines(&cinfo, &row, 1);
+    }
+    jpeg_finish_compress(&cinfo);
+    jpeg_destroy_compress(&cinfo);
+    fclose(f);
+
+    hd_image img = {0};
+    hd_image_info info;
+    CHECK(hd_image_read_info("smooth.jpg", &img, &info) == HD_OK);
+    CHECK(img.width == w && img.height == h && img.channels == 3 && strcmp(info.format, "JPEG") == 0);
+    if (img.channels == 3) {
+        double worst = 0, sum = 0;
+        size_t np = (size_t)w * h;
+        for (int c = 0; c < 3; c++)
+            for (size_t p = 0; p < np; p++) {
+                double e = fabs(img.data[c * np + p] - rgb[p * 3 + c] / 255.0);
+                sum += e;
+                if (e > worst) worst = e;
+            }
+        /* quality 95 on a smooth gradient: a few levels at worst, well under one on average */
+        CHECK(worst < 12 / 255.0);
+        CHECK(sum / (3 * np) < 2 / 255.0);
+    }
+    hd_image_free(&img);
+
+    /* Truncated: an error naming the file, not a gray-filled image. */
+    char *data;
+    size_t size;
+    CHECK(hd_read_file("smooth.jpg", 1 << 20, &data, &size) == HD_OK);
+    f = fopen("cut.jpg", "wb");
+    fwrite(data, 1, size * 2 / 3, f);
+    fclose(f);
+    free(data);
+    CHECK(hd_image_read("cut.jpg", &img) == HD_ERR_FORMAT);
+    CHECK(strstr(hd_error(), "cut.jpg") != NULL);
+    CHECK(img.data == NULL);
+}
+
+static void test_pfm(void)
+{
+    hd_rng rng;
+    hd_rng_seed(&rng, 2, 1);
+    for (int c = 1; c <= 3; c += 2) {
+        hd_image img = {0}, back = {0};
+        CHECK(hd_image_alloc(&img, 9, 5, c) == HD_OK);
+        fill_random(&img, &rng);
+        img.data[3] = 1e30f;
+        img.data[4] = -2.5e-30f;
+        img.data[5] = 1.7f;
+        CHECK(hd_image_write_pfm("rt.pfm", &img) == HD_OK);
+        CHECK(hd_image_read("rt.pfm", &back) == HD_OK);
+        CHECK(back.width == 9 && back.height == 5 && back.channels == c);
+        if (back.data)
+            CHECK(memcmp(img.data, back.data, (size_t)9 * 5 * c * sizeof(float)) == 0);
+        hd_image_free(&img);
+        hd_image_free(&back);
+    }
+    /* Bottom-to-top rows and a big-endian file written by hand. */
+    FILE *f = fopen("be.pfm", "wb");
+    fputs("Pf\n2 2\n1.0\n", f);
+    const unsigned char rows[16] = {0x3F, 0x80, 0, 0, 0x40, 0, 0, 0, /* bottom: 1, 2 */
+                                    0x40, 0x40, 0, 0, 0x40, 0x80, 0, 0}; /* top: 3, 4 */
+    fwrite(rows, 1, 16, f);
+    fclose(f);
+    hd_image img = {0};
+    CHECK(hd_image_read("be.pfm", &img) == HD_OK);
+    if (img.data) {
+        CHECK_NEAR(img.data[0], 3, 0);
+        CHECK_NEAR(img.data[1], 4, 0);
+        CHECK_NEAR(img.data[2], 1, 0);
+        CHECK_NEAR(img.data[3], 2, 0);
+    }
+    hd_image_free(&img);
+    /* 2-channel images do not fit PFM. */
+    CHECK(hd_image_alloc(&img, 2, 2, 2) == HD_OK);
+    CHECK(hd_image_write_pfm("two.pfm", &img) == HD_ERR_ARG);
+    hd_image_free(&img);
+}
+
+static void test_resize(void)
+{
+    hd_image img = {0}, out = {0};
+    /* A constant stays constant under every combination of shrinking and enlarging. */
+    CHECK(hd_image_alloc(&img, 17, 11, 3) == HD_OK);
+    for (size_t i = 0; i < (size_t)17 * 11 * 3; i++) img.data[i] = 0.375f;
+    const int sizes[4][2] = {{5, 3}, {40, 29}, {6, 30}, {17, 11}};
+    for (int s = 0; s < 4; s++) {
+        CHECK(hd_image_resize(&img, sizes[s][0], sizes[s][1], &out) == HD_OK);
+        double worst = 0;
+        for (size_t i = 0; i < (size_t)sizes[s][0] * sizes[s][1] * 3; i++)
+            worst = fmax(worst, fabs(out.data[i] - 0.375));
+        CHECK_NEAR(worst, 0, 1e-6);
+        hd_image_free(&out);
+    }
+    hd_image_free(&img);
+
+    /* Area 4x4 -> 2x2 is the mean of each 2x2 block, exactly. */
+    CHECK(hd_image_alloc(&img, 4, 4, 1) == HD_OK);
+    for (int i = 0; i < 16; i++) img.data[i] = (float)(i * i % 7) / 8.0f;
+    CHECK(hd_image_resize(&img, 2, 2, &out) == HD_OK);
+    for (int by = 0; by < 2; by++)
+        for (int bx = 0; bx < 2; bx++) {
+            float sum = 0;
+            for (int y = 0; y < 2; y++)
+                for (int x = 0; x < 2; x++) sum += img.data[(by * 2 + y) * 4 + bx * 2 + x];
+            CHECK(out.data[by * 2 + bx] == sum / 4);
+        }
+    hd_image_free(&out);
+    /* A fractional shrink 4 -> 3: output 0 covers samples 0 (whole) and 1 (a third). */
+    CHECK(hd_image_resize(&img, 3, 4, &out) == HD_OK);
+    CHECK_NEAR(out.data[0], (img.data[0] * 1.0 + img.data[1] / 3.0) * 3 / 4, 1e-6);
+    CHECK_NEAR(out.data[1], (img.data[1] * 2 / 3.0 + img.data[2] * 2 / 3.0) * 3 / 4, 1e-6);
+    hd_image_free(&out);
+    hd_image_free(&img);
+
+    /* Bilinear up of a ramp v = x is linear inside (slope n/m), clamped at the edges. */
+    CHECK(hd_image_alloc(&img, 5, 3, 1) == HD_OK);
+    for (int y = 0; y < 3; y++)
+        for (int x = 0; x < 5; x++) img.data[y * 5 + x] = (float)x;
+    CHECK(hd_image_resize(&img, 20, 7, &out) == HD_OK);
+    for (int y = 0; y < 7; y++)
+        for (int x = 0; x < 20; x++) {
+            double sx = (x + 0.5) * 5 / 20.0 - 0.5;
+            double want = sx < 0 ? 0 : sx > 4 ? 4 : sx;
+            CHECK_NEAR(out.data[y * 20 + x], want, 1e-5);
+        }
+    hd_image_free(&out);
+    hd_image_free(&img);
+}
+
+static void test_normals(void)
+{
+    hd_rng rng;
+    hd_rng_seed(&rng, 3, 1);
+    const int w = 16, h = 16;
+    size_t np = (size_t)w * h;
+    hd_image n = {0}, m = {0}, rgb = {0}, back = {0}, file = {0}, mask_back = {0};
+    CHECK(hd_image_alloc(&n, w, h, 3) == HD_OK);
+    CHECK(hd_image_alloc(&m, w, h, 1) == HD_OK);
+    for (size_t p = 0; p < np; p++) {
+        float x = hd_rng_range(&rng, -1, 1), y = hd_rng_range(&rng, -1, 1), z = hd_rng_range(&rng, 0.05f, 1);
+        float len = sqrtf(x * x + y * y + z * z);
+        n.data[p] = x / len;
+        n.data[np + p] = y / len;
+        n.data[2 * np + p] = z / len;
+        m.data[p] = p % 5 == 0 ? 0.0f : 1.0f;
+    }
+    CHECK(hd_normal_encode(&n, &m, &rgb) == HD_OK);
+    CHECK(rgb.data[0] == 0 && rgb.data[np] == 0 && rgb.data[2 * np] == 0);
+    CHECK(hd_image_write_png("normal.png", &rgb, 16) == HD_OK);
+    CHECK(hd_image_read("normal.png", &file) == HD_OK);
+    CHECK(hd_normal_decode(&file, &back, &mask_back) == HD_OK);
+    double worst = 0;
+    for (size_t p = 0; p < np; p++) {
+        CHECK(mask_back.data[p] == m.data[p]);
+        for (int c = 0; c < 3; c++) {
+            double want = m.data[p] > 0 ? n.data[c * np + p] : 0.0;
+            worst = fmax(worst, fabs(back.data[c * np + p] - want));
+        }
+    }
+    CHECK_NEAR(worst, 0, 2.0 / 65535);
+    hd_image_free(&n);
+    hd_image_free(&m);
+    hd_image_free(&rgb);
+    hd_image_free(&back);
+    hd_image_free(&file);
+    hd_image_free(&mask_back);
+    /* Mid gray is too short to be a normal: masked out. */
+    hd_image gray = {0};
+    CHECK(hd_image_alloc(&gray, 1, 1, 3) == HD_OK);
+    gray.data[0] = gray.data[1] = gray.data[2] = 0.5f;
+    CHECK(hd_normal_decode(&gray, &back, &mask_back) == HD_OK);
+    CHECK(mask_back.data[0] == 0 && back.data[2] == 0);
+    hd_image_free(&back);
+    hd_image_free(&mask_back);
+    hd_image_free(&gray);
+}
+
+static void expect_error(const char *path, const char *bytes, size_t n, const char *needle)
+{
+    FILE *f = fopen(path, "wb");
+    fwrite(bytes, 1, n, f);
+    fclose(f);
+    hd_image img = {0};
+    hd_status st = hd_image_read(path, &img);
+    CHECK(st != HD_OK);
+    CHECK(img.data == NULL);
+    if (!strstr(hd_error(), path) || (needle && !strstr(hd_error(), needle))) {
+        fprintf(stderr, "reason for %s lacks '%s': %s\n", path, needle ? needle : path, hd_error());
+        test_failures++;
+    }
+}
+
+static void test_errors(void)
+{
+    hd_image img = {0};
+    CHECK(hd_image_read("missing.png", &img) == HD_ERR_IO);
+    CHECK(strstr(hd_error(), "missing.png") != NULL);
+    expect_error("empty.png", "", 0, "empty");
+    expect_error("text.png", "hello world", 11, "unknown image format");
+    expect_error("neg.pfm", "PF\n-3 2\n-1.0\n", 14, "size");
+    expect_error("huge.pfm", "PF\n20000 2\n-1.0\n", 16, "limit");
+    expect_error("scale.pfm", "Pf\n1 1\nabc\n\1\1\1\1", 16, "scale");
+    expect_error("short.pfm", "Pf\n2 2\n-1.0\n\0\0\0\0\0\0", 18, "truncated");
+    /* A valid PNG cut in its image data. */
+    hd_image big = {0};
+    hd_rng rng;
+    hd_rng_seed(&rng, 4, 1);
+    CHECK(hd_image_alloc(&big, 64, 64, 3) == HD_OK);
+    fill_random(&big, &rng);
+    CHECK(hd_image_write_png("whole.png", &big, 8) == HD_OK);
+    hd_image_free(&big);
+    char *data;
+    size_t size;
+    CHECK(hd_read_file("whole.png", 1 << 20, &data, &size) == HD_OK);
+    expect_error("cut.png", data, size / 2, "truncated");
+    expect_error("cut_end.png", data, size - 6, NULL);
+    free(data);
+}
+
+int main(void)
+{
+    test_png_round_trips();
+    test_png_variants();
+    test_jpeg();
+    test_pfm();
+    test_resize();
+    test_normals();
+    test_errors();
+    return test_summary("test_image");
+}
