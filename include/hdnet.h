@@ -94,6 +94,17 @@ hd_status hd_image_write_pfm(const char *path, const hd_image *img);
 /* Resizes to width x height: area filter when shrinking, bilinear when enlarging (per axis). */
 hd_status hd_image_resize(const hd_image *src, int width, int height, hd_image *dst);
 
+/* What a file held, as hd_image_read_info reports it. */
+typedef struct hd_image_info {
+    const char *format; /* "PNG", "JPEG" or "PFM" (a static string) */
+    int width, height;
+    int channels;       /* as stored (palette: 3 or 4 after expansion) */
+    int bits;           /* bits per sample in the file: 1, 2, 4, 8 or 16; 32 for PFM */
+    int palette;        /* 1 for a palette PNG */
+} hd_image_info;
+/* hd_image_read that also describes the file; info may be NULL. */
+hd_status hd_image_read_info(const char *path, hd_image *img, hd_image_info *info);
+
 /* Normal maps: rgb = (n + 1) / 2 in files. Decoding renormalises to unit length and sets the
  * mask to 0 where the stored vector is (near) zero; `mask` may be NULL. */
 hd_status hd_normal_decode(const hd_image *rgb, hd_image *normal, hd_image *mask);
