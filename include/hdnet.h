@@ -271,6 +271,52 @@ void hd_sheet_free(hd_sheet *sheet);
 
 /* ---------------------------------------------------------------- synthetic faces (src/synth) */
 
+/* A generator of faces with full ground truth, rendered straight into the aligned texture space
+ * (docs/synthetic-data.md). Everything is a pure function of (seed, subject, image): the same
+ * set comes out whatever the thread count. */
+typedef struct hd_synth hd_synth;                 /* per texture size: mesh, UV raster, region maps */
+typedef struct hd_synth_subject hd_synth_subject; /* one identity: shape, fine detail, albedo */
+
+typedef struct hd_synth_face {
+    hd_image image;     /* 3: albedo * shading, clamped to [0, 1]; 0 outside the mask */
+    hd_image mask;      /* 1: 1 on visible face texels, else 0 */
+    hd_image normal;    /* 3: coarse normals (the undeformed canonical mesh in the image's pose) */
+    hd_image albedo;    /* 3: ground-truth albedo in [0, 1] */
+    hd_image normal_gt; /* 3: ground-truth unit normals (identity shape + fine detail, posed) */
+    hd_image shading;   /* 1: ground-truth shading s(normal_gt, light), not clamped */
+    float light[HD_SH_COEFFS];
+    float yaw_deg, pitch_deg, roll_deg; /* the head's pose */
+} hd_synth_face;
+
+hd_status hd_synth_create(int size, hd_synth **synth);
+void hd_synth_free(hd_synth *synth);
+int hd_synth_size(const hd_synth *synth);
+/* The identity of subject `subject` for this seed (deterministic). */
+hd_status hd_synth_subject_make(const hd_synth *synth, uint64_t seed, int subject, hd_synth_subject **out);
+void hd_synth_subject_free(hd_synth_subject *subject);
+/* Image `image` of a subject: its own light and (with pose_jitter_deg > 0) pose, drawn from the
+ * stream (seed, subject, image). `out` is allocated. */
+hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
+                          float pose_jitter_deg, hd_synth_face *out);
+void hd_synth_face_free(hd_synth_face *face);
+/* Writes the SPEC section 5 files of one face as dir/NAME.png, NAME.mask.png, NAME.normal.png,
+ * NAME.albedo.png, NAME.normal_gt.png, NAME.shading.png (16 bit, s/2), NAME.shading.pfm and
+ * NAME.light.txt (each atomically). */
+hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_face *face);
+
+typedef struct hd_synth_options {
+    int subjects, per_subject, size;
+    uint64_t seed;
+    float pose_jitter_deg; /* maximum yaw, pitch and roll, degrees (0: frontal) */
+} hd_synth_options;
+/* Called now and then with the number of images written (may be NULL). */
+typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);
+/* Writes a whole set: out/subject_XXXX/YYYY.* for every subject and image, plus out/preview.png
+ * (a sheet of the first subjects). Parallel over images with OpenMP (hd_set_threads). */
+hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
+                             hd_synth_progress_fn progress, void *ctx);
+
+
 /* ---------------------------------------------------------------- evaluation (src/eval) */
 
 /* ---------------------------------------------------------------- photo alignment (src/align) */

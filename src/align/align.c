@@ -1,0 +1,178 @@
+/* align.c: aligned faces on disk: the SPEC section 5 files of one face (texture, mask, coarse
+ * normals, landmarks) and the .warp.txt file that holds everything needed to warp a result back
+ * into the photo, and whole photos through detection and landmarks (hd_align_photo). */
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+
+#define WARP_MAGIC "hdnet-warp"
+#define WARP_VERSION 1
+
+/* Joins dir and stem + suffix; NULL (with reason) on failure. */
+static char *face_path(const char *dir, const char *stem, const char *suffix)
+{
+    size_t n = strlen(stem) + strlen(suffix) + 1;
+    char *name = hd_malloc(n);
+    if (!name) return NULL;
+    snprintf(name, n, "%s%s", stem, suffix);
+    char *path = hd_path_join(dir, name);
+    free(name);
+    return path;
+}
+
+static hd_status write_landmarks(const hd_aligned_face *face, const char *path)
+{
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st) return st;
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++)
+        fprintf(af.f, "%.9g %.9g %.9g\n", face->landmarks[i][0], face->landmarks[i][1], face->landmarks[i][2]);
+    return hd_atomic_commit(&af);
+}
+
+static hd_status write_warp(const hd_aligned_face *face, const char *path)
+{
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st) return st;
+    FILE *f = af.f;
+    const float *R = face->rotation, *t = face->translation;
+    fprintf(f, "%s %d\n", WARP_MAGIC, WARP_VERSION);
+    fprintf(f, "photo %d %d\n", face->photo_width, face->photo_height);
+    fprintf(f, "size %d\n", face->size);
+    fprintf(f, "score %.9g\n", face->score);
+    fprintf(f, "box %.9g %.9g %.9g %.9g\n", face->box[0], face->box[1], face->box[2], face->box[3]);
+    fprintf(f, "scale %.9g\n", face->scale);
+    fprintf(f, "rotation %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", R[0], R[1], R[2], R[3], R[4], R[5], R[6],
+            R[7], R[8]);
+    fprintf(f, "translation %.9g %.9g %.9g\n", t[0], t[1], t[2]);
+    fprintf(f, "depth_sign %.0f\n", face->depth_sign);
+    fprintf(f, "fit_rms %.9g\n", face->fit_rms);
+    fprintf(f, "landmarks %d\n", HD_FACE_LANDMARKS);
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++)
+        fprintf(f, "%.9g %.9g %.9g\n", face->landmarks[i][0], face->landmarks[i][1], face->landmarks[i][2]);
+    return hd_atomic_commit(&af);
+}
+
+hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem)
+{
+    if (!face || !face->texture.data || !face->mask.data || !face->normal.data)
+        return hd_fail(HD_ERR_ARG, "write aligned face: the face has no images");
+    static const char *const suffix[5] = {".png", ".mask.png", ".normal.png", ".landmarks.txt", ".warp.txt"};
+    char *path[5] = {0};
+    hd_status st = HD_OK;
+    for (int k = 0; k < 5 && !st; k++)
+        if (!(path[k] = face_path(dir, stem, suffix[k]))) st = HD_ERR_NOMEM;
+    hd_image rgb = {0};
+    if (!st) st = hd_image_write_png(path[0], &face->texture, 8);
+    if (!st) st = hd_image_write_png(path[1], &face->mask, 8);
+    if (!st) st = hd_normal_encode(&face->normal, &face->mask, &rgb);
+    if (!st) st = hd_image_write_png(path[2], &rgb, 16);
+    if (!st) st = write_landmarks(face, path[3]);
+    if (!st) st = write_warp(face, path[4]);
+    hd_image_free(&rgb);
+    for (int k = 0; k < 5; k++) free(path[k]);
+    return st;
+}
+
+/* A cursor over the lines of a text file, for errors that name the file and the line. */
+typedef struct reader {
+    const char *path;
+    char *p;
+    int line;
+} reader;
+
+/* Next line, NUL-terminated in place; NULL at the end. */
+static char *next_line(reader *r)
+{
+    if (!*r->p) return NULL;
+    char *s = r->p, *e = strchr(s, '\n');
+    if (e) {
+        *e = '\0';
+        r->p = e + 1;
+    } else {
+        r->p = s + strlen(s);
+    }
+    r->line++;
+    return s;
+}
+
+/* Reads the line "key v1 ... vn" into floats; errors name the file and the line. */
+static hd_status read_floats(reader *r, const char *key, int n, float *v)
+{
+    char *s = next_line(r);
+    if (!s) return hd_fail(HD_ERR_FORMAT, "%s:%d: ends early, expected '%s'", r->path, r->line + 1, key);
+    size_t kl = strlen(key);
+    if (key[0]) {
+        if (strncmp(s, key, kl) != 0 || !isspace((unsigned char)s[kl]))
+            return hd_fail(HD_ERR_FORMAT, "%s:%d: expected '%s', got '%.40s'", r->path, r->line, key, s);
+        s += kl;
+    }
+    for (int i = 0; i < n; i++) {
+        char *end;
+        double x = strtod(s, &end);
+        if (end == s) return hd_fail(HD_ERR_FORMAT, "%s:%d: expected %d numbers", r->path, r->line, n);
+        if (!isfinite(x) || fabs(x) > 1e30) return hd_fail(HD_ERR_NUMERIC, "%s:%d: number %d is not finite", r->path, r->line, i + 1);
+        v[i] = (float)x;
+        s = end;
+    }
+    while (isspace((unsigned char)*s)) s++;
+    if (*s) return hd_fail(HD_ERR_FORMAT, "%s:%d: unexpected text '%.20s'", r->path, r->line, s);
+    return HD_OK;
+}
+
+hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face)
+{
+    memset(face, 0, sizeof *face);
+    char *text;
+    size_t size;
+    hd_status st = hd_read_file(path, 1 << 20, &text, &size);
+    if (st) return st;
+    reader r = {path, text, 0};
+    float v[9];
+    char *s = next_line(&r);
+    int version = 0;
+    if (!s || sscanf(s, WARP_MAGIC " %d", &version) != 1) {
+        st = hd_fail(HD_ERR_FORMAT, "%s:1: not an hdnet warp file (expected '%s %d')", path, WARP_MAGIC, WARP_VERSION);
+        goto done;
+    }
+    if (version != WARP_VERSION) {
+        st = hd_fail(HD_ERR_FORMAT, "%s:1: warp file version %d, this hdnet reads version %d", path, version, WARP_VERSION);
+        goto done;
+    }
+    if ((st = read_floats(&r, "photo", 2, v))) goto done;
+    if (v[0] != floorf(v[0]) || v[1] != floorf(v[1]) || v[0] < 1 || v[1] < 1 || v[0] > HD_IMAGE_MAX_SIDE ||
+        v[1] > HD_IMAGE_MAX_SIDE) {
+        st = hd_fail(HD_ERR_RANGE, "%s:%d: photo size %gx%g out of range", path, r.line, v[0], v[1]);
+        goto done;
+    }
+    face->photo_width = (int)v[0];
+    face->photo_height = (int)v[1];
+    if ((st = read_floats(&r, "size", 1, v))) goto done;
+    if (v[0] != floorf(v[0]) || v[0] < 16 || v[0] > 4096) {
+        st = hd_fail(HD_ERR_RANGE, "%s:%d: texture size %g not in [16, 4096]", path, r.line, v[0]);
+        goto done;
+    }
+    face->size = (int)v[0];
+    if ((st = read_floats(&r, "score", 1, &face->score)) || (st = read_floats(&r, "box", 4, face->box)) ||
+        (st = read_floats(&r, "scale", 1, &face->scale)) || (st = read_floats(&r, "rotation", 9, face->rotation)) ||
+        (st = read_floats(&r, "translation", 3, face->translation)) || (st = read_floats(&r, "depth_sign", 1, v)))
+        goto done;
+    if (v[0] != 1.0f && v[0] != -1.0f) {
+        st = hd_fail(HD_ERR_FORMAT, "%s:%d: depth_sign must be 1 or -1", path, r.line);
+        goto done;
+    }
+    face->depth_sign = v[0];
+    if ((st = read_floats(&r, "fit_rms", 1, &face->fit_rms)) || (st = read_floats(&r, "landmarks", 1, v))) goto done;
+    if (v[0] != HD_FACE_LANDMARKS) {
+        st = hd_fail(HD_ERR_FORMAT, "%s:%d: %g landmarks, expected %d", path, r.line, v[0], HD_FACE_LANDMARKS);
+        goto done;
+    }
+    for (int i = 0; i < HD_FACE_LANDMARKS && !st; i++) st = read_floats(&r, "", 3, face->landmarks[i]);
+done:
+    free(text);
+    return st;
+}
