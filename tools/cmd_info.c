@@ -1,0 +1,155 @@
+/* cmd_info.c: `hdnet info FILE...`: says what each file is (image, checkpoint or light file) and
+ * what it holds, after reading it with the same checked readers every other command uses; a
+ * broken file gets the reader's reason and exit status 1 (docs/formats.md lists the formats). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+
+HD_COMMAND("info", cmd_info, "describe image, checkpoint (safetensors) and light files")
+
+typedef enum file_kind { KIND_IMAGE, KIND_SAFETENSORS, KIND_LIGHT } file_kind;
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcmp(s + a - b, suffix) == 0;
+}
+
+/* By name first (.safetensors, .txt), else by content: a safetensors header starts with a
+ * length word and '{'; everything else goes to the image reader, which names unknown formats. */
+static file_kind guess_kind(const char *path)
+{
+    if (ends_with(path, ".safetensors")) return KIND_SAFETENSORS;
+    if (ends_with(path, ".txt")) return KIND_LIGHT;
+    FILE *f = fopen(path, "rb");
+    if (!f) return KIND_IMAGE;
+    unsigned char head[9];
+    size_t got = fread(head, 1, sizeof head, f);
+    fclose(f);
+    if (got == 9 && head[8] == '{' && head[6] == 0 && head[7] == 0) return KIND_SAFETENSORS;
+    return KIND_IMAGE;
+}
+
+static int info_image(const char *path)
+{
+    hd_image img = {0};
+    hd_image_info info;
+    if (hd_image_read_info(path, &img, &info) != HD_OK) return 1;
+    static const char *const names[5][4] = {{""},
+                                            {"gray"},
+                                            {"gray", "alpha"},
+                                            {"red", "green", "blue"},
+                                            {"red", "green", "blue", "alpha"}};
+    printf("%s: %s image, %d x %d, %d channel%s, %d bit%s%s\n", path, info.format, img.width, img.height,
+           img.channels, img.channels == 1 ? "" : "s", info.bits, info.format[1] == 'F' ? " float" : "",
+           info.palette ? " palette" : "");
+    size_t np = (size_t)img.width * img.height;
+    for (int c = 0; c < img.channels; c++) {
+        const float *p = img.data + c * np;
+        float lo = p[0], hi = p[0];
+        double sum = 0;
+        for (size_t i = 0; i < np; i++) {
+            if (p[i] < lo) lo = p[i];
+            if (p[i] > hi) hi = p[i];
+            sum += p[i];
+        }
+        printf("  %-6s min %.6g  max %.6g  mean %.6g\n", names[img.channels][c], lo, hi, sum / np);
+    }
+    hd_image_free(&img);
+    return 0;
+}
+
+/* Prints at most max bytes of s with control characters escaped, "..." when cut. */
+static void print_escaped(const char *s, size_t max)
+{
+    size_t i = 0;
+    for (; s[i] && i < max; i++) {
+        unsigned char c = (unsigned char)s[i];
+        if (c == '\n') printf("\\n");
+        else if (c < 32 || c == 127) printf("\\x%02x", c);
+        else putchar(c);
+    }
+    if (s[i]) printf("...");
+}
+
+static int info_safetensors(const char *path, int show)
+{
+    hd_safetensors st;
+    if (hd_safetensors_read(path, &st) != HD_OK) return 1;
+    long long params = 0;
+    for (int i = 0; i < st.count; i++) {
+        long long n = 1;
+        for (int d = 0; d < st.tensors[i].ndim; d++) n *= st.tensors[i].shape[d];
+        params += n;
+    }
+    printf("%s: safetensors, %d tensor%s, %lld parameters (F32), %d metadata entr%s\n", path, st.count,
+           st.count == 1 ? "" : "s", params, st.meta_count, st.meta_count == 1 ? "y" : "ies");
+    for (int i = 0; i < st.meta_count; i++) {
+        printf("  meta ");
+        print_escaped(st.meta_keys[i], 40);
+        printf(" = ");
+        print_escaped(st.meta_values[i], 60);
+        printf("\n");
+    }
+    for (int i = 0; i < st.count && i < show; i++) {
+        printf("  %s [", st.tensors[i].name);
+        for (int d = 0; d < st.tensors[i].ndim; d++)
+            printf("%s%lld", d ? ", " : "", (long long)st.tensors[i].shape[d]);
+        printf("]\n");
+    }
+    if (st.count > show) printf("  ... and %d more (--tensors N to list more)\n", st.count - show);
+    hd_safetensors_free(&st);
+    return 0;
+}
+
+static int info_light(const char *path)
+{
+    float light[HD_SH_COEFFS];
+    if (hd_light_read(path, light) != HD_OK) return 1;
+    printf("%s: light file, 9 spherical-harmonics coefficients (DPR order)\n ", path);
+    for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6g", light[k]);
+    static const float dirs[5][3] = {{0, 0, 1}, {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}};
+    static const char *const dir_names[5] = {"viewer", "right", "left", "up", "down"};
+    printf("\n  shading toward");
+    for (int i = 0; i < 5; i++) printf(" %s %.4f%s", dir_names[i], hd_sh_shade(light, dirs[i]), i < 4 ? "," : "");
+    printf("\n");
+    return 0;
+}
+
+int cmd_info(int argc, char **argv)
+{
+    int show = 10;
+    const hd_opt opts[] = {
+        {"tensors", 0, HD_OPT_INT, &show, "N", "list the first N tensors of a checkpoint (default 10)"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "info", "[--tensors N] FILE...",
+        "Reads each file with hdnet's checked readers and says what it is: an image (PNG, JPEG or\n"
+        "PFM: size, channels, bit depth, min/max/mean per channel), a checkpoint (safetensors:\n"
+        "tensor count, parameters, metadata, the first tensors with their shapes) or a light file\n"
+        "(*.txt: the 9 coefficients and the shading they give five directions). A broken file is\n"
+        "reported with the reason; the exit status is then 1 (the other files are still shown).",
+        opts, 1, -1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (show < 0) {
+        free(pos);
+        return hd_usage_error(&spec, "--tensors must be >= 0");
+    }
+    int failed = 0;
+    for (int i = 0; i < npos; i++) {
+        int bad = 0;
+        switch (guess_kind(pos[i])) {
+        case KIND_IMAGE: bad = info_image(pos[i]); break;
+        case KIND_SAFETENSORS: bad = info_safetensors(pos[i], show); break;
+        case KIND_LIGHT: bad = info_light(pos[i]); break;
+        }
+        fflush(stdout);
+        if (bad) failed = hd_report("info");
+    }
+    free(pos);
+    return failed ? HD_EXIT_FAIL : HD_EXIT_OK;
+}
