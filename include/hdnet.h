@@ -405,12 +405,13 @@ typedef struct hd_poisson_report {
 hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
                            double tolerance, hd_image *target, hd_poisson_report *report);
 
-/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side) back into
- * `photo` (the photo the face came from, same size, 3 channels) and blends it in with
- * hd_poisson_blend over the warped region shrunk by one pixel, so that outside the face the
- * photo is untouched and no seam shows. report may be NULL. */
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_image *photo,
-                             hd_poisson_report *report);
+/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
+ * face->mask > 0.5, or everywhere if face->mask is empty) back into `photo` (the photo the face
+ * came from, same size and channels as the texture) with hd_warp_back, and blends it in with
+ * hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by one
+ * pixel, so that outside the face the photo is untouched and no seam shows. report may be NULL. */
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, double tolerance,
+                             hd_image *photo, hd_poisson_report *report);
 
 
 #ifdef __cplusplus

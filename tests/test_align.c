@@ -240,7 +240,7 @@ static void test_round_trip_and_normals(void)
     CHECK(hd_image_alloc(&copy, photo.width, photo.height, 3) == HD_OK);
     memcpy(copy.data, photo.data, (size_t)3 * photo.width * photo.height * sizeof(float));
     hd_poisson_report rep;
-    CHECK(hd_warp_back_blend(&face, &face.texture, &copy, &rep) == HD_OK);
+    CHECK(hd_warp_back_blend(&face, &face.texture, 0, &copy, &rep) == HD_OK);
     CHECK(rep.unknowns > 10000 && rep.residual[0] <= HD_POISSON_TOLERANCE);
     hd_image all = {0};
     CHECK(hd_image_alloc(&all, photo.width, photo.height, 1) == HD_OK);

@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+#include "align/face_detect.h"
+#include "align/face_landmarks.h"
 
 #define WARP_MAGIC "hdnet-warp"
 #define WARP_VERSION 1
@@ -174,5 +176,78 @@ hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face)
     for (int i = 0; i < HD_FACE_LANDMARKS && !st; i++) st = read_floats(&r, "", 3, face->landmarks[i]);
 done:
     free(text);
+    return st;
+}
+
+/* MediaPipe drops a face whose landmark model gives a presence below this. */
+#define MIN_PRESENCE 0.5f
+
+hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count)
+{
+    *faces = NULL;
+    *count = 0;
+    if (!photo || !photo->data || photo->width < 1 || photo->height < 1)
+        return hd_fail(HD_ERR_ARG, "align: empty photo");
+    if (size < 16 || size > 4096) return hd_fail(HD_ERR_RANGE, "align: texture size %d is not in [16, 4096]", size);
+    hd_image rgb = {0};
+    const hd_image *p3 = photo;
+    hd_status st = HD_OK;
+    if (photo->channels != 3) {
+        if ((st = hd_image_convert(photo, 3, &rgb))) return st;
+        p3 = &rgb;
+    }
+    hd_face_box *boxes = NULL;
+    int nboxes = 0, dropped = 0;
+    hd_aligned_face *out = NULL;
+    float (*landmarks)[3] = NULL;
+    if ((st = hd_face_detect(p3, &boxes, &nboxes))) goto done;
+    if (nboxes > 0) {
+        out = hd_calloc((size_t)nboxes, sizeof *out);
+        landmarks = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
+        if (!out || !landmarks) {
+            st = HD_ERR_NOMEM;
+            goto done;
+        }
+    }
+    hd_status last = HD_OK;
+    for (int b = 0; b < nboxes; b++) {
+        float presence = 1;
+        hd_status fs = hd_face_landmarks(p3, &boxes[b], landmarks, &presence);
+        if (fs == HD_ERR_NOMEM) {
+            st = fs;
+            goto done;
+        }
+        if (fs == HD_OK && presence < MIN_PRESENCE) {
+            dropped++;
+            continue;
+        }
+        if (fs == HD_OK) fs = hd_align_face(p3, (const float (*)[3])landmarks, size, &out[*count]);
+        if (fs != HD_OK) {
+            last = fs;
+            continue;
+        }
+        hd_aligned_face *f = &out[(*count)++];
+        f->score = boxes[b].score;
+        f->box[0] = boxes[b].x0;
+        f->box[1] = boxes[b].y0;
+        f->box[2] = boxes[b].x1;
+        f->box[3] = boxes[b].y1;
+    }
+    if (*count == 0) {
+        if (last != HD_OK) st = last; /* its reason is already set */
+        else
+            st = hd_fail(HD_ERR_NOTFOUND, "no face found (%d detection(s), %d rejected by the landmark model)", nboxes,
+                         dropped);
+    }
+done:
+    if (st) {
+        hd_aligned_faces_free(out, *count);
+        *count = 0;
+        out = NULL;
+    }
+    *faces = out;
+    free(boxes);
+    free(landmarks);
+    hd_image_free(&rgb);
     return st;
 }

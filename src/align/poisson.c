@@ -29,6 +29,8 @@ typedef struct level {
 #define SMOOTH_SWEEPS 2
 #define COARSE_SWEEPS 30
 #define MAX_ITERATIONS 1000
+/* Grids smaller than this run on one thread: a parallel region costs more than it saves. */
+#define PARALLEL_CELLS (1 << 20)
 
 typedef struct solver {
     int nlevels;
@@ -91,7 +93,7 @@ static hd_status solver_build(solver *s)
 /* out = A u on level L (0 outside Omega). */
 static void apply_operator(const level *L, const float *u, float *out)
 {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (L->cells >= PARALLEL_CELLS)
     for (int y = 1; y <= L->h; y++)
         for (int x = 1; x <= L->w; x++) {
             size_t i = (size_t)y * L->stride + x;
@@ -103,7 +105,7 @@ static void apply_operator(const level *L, const float *u, float *out)
  * u_p = (f_p / coef + sum_q u_q) / 4, with u = 0 outside Omega. */
 static void gs_color(level *L, int color)
 {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (L->cells >= PARALLEL_CELLS)
     for (int y = 1; y <= L->h; y++)
         for (int x = 1 + ((y + 1 + color) & 1); x <= L->w; x += 2) {
             size_t i = (size_t)y * L->stride + x;
@@ -134,7 +136,7 @@ static void v_cycle(solver *s, int l)
     level *C = &s->lv[l + 1];
     memset(C->f, 0, C->cells * sizeof(float));
     /* restriction: f_c = (1/4) sum over the 2x2 children of (f - A u) */
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (L->cells >= PARALLEL_CELLS)
     for (int cy = 0; cy < C->h; cy++)
         for (int y = 2 * cy; y < 2 * cy + 2 && y < L->h; y++)
             for (int x = 0; x < L->w; x++) {
@@ -143,7 +145,7 @@ static void v_cycle(solver *s, int l)
             }
     v_cycle(s, l + 1);
     /* prolongation: every child takes its parent's correction */
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (L->cells >= PARALLEL_CELLS)
     for (int y = 0; y < L->h; y++)
         for (int x = 0; x < L->w; x++) {
             size_t i = (size_t)(y + 1) * L->stride + x + 1;
@@ -158,7 +160,7 @@ static void v_cycle(solver *s, int l)
 static double dot(const float *a, const float *b, size_t n)
 {
     double sum = 0;
-#pragma omp parallel for reduction(+ : sum) schedule(static)
+#pragma omp parallel for reduction(+ : sum) schedule(static) if (n >= PARALLEL_CELLS)
     for (size_t i = 0; i < n; i++) sum += (double)a[i] * b[i];
     return sum;
 }
@@ -201,7 +203,7 @@ static void pcg(solver *s, double tol, int *iterations, double *rel_residual)
             if (!(pap > 0)) break;
             /* alpha = r.z / p.Ap;  x += alpha p;  r -= alpha Ap */
             double alpha = rz / pap, rr = 0;
-#pragma omp parallel for reduction(+ : rr) schedule(static)
+#pragma omp parallel for reduction(+ : rr) schedule(static) if (n >= PARALLEL_CELLS)
             for (size_t i = 0; i < n; i++) {
                 s->x[i] += (float)(alpha * s->p[i]);
                 s->res[i] -= (float)(alpha * s->ap[i]);
@@ -213,7 +215,7 @@ static void pcg(solver *s, double tol, int *iterations, double *rel_residual)
             /* beta = r'.z' / r.z;  p = z' + beta p */
             double rz_new = dot(s->res, s->z, n), beta = rz_new / rz;
             rz = rz_new;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= PARALLEL_CELLS)
             for (size_t i = 0; i < n; i++) s->p[i] = s->z[i] + (float)(beta * s->p[i]);
         }
     }

@@ -251,14 +251,22 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
                 if (qy >= pr.height) qy = pr.height - 1;
                 if (qx >= 0 && qy >= 0) {
                     int t2 = pr.tri[(size_t)qy * pr.width + qx];
-                    if (t2 >= 0 && t2 != t) {
-                        const float *a = face->landmarks[mesh.tri[3 * t2]], *bb = face->landmarks[mesh.tri[3 * t2 + 1]],
-                                    *c = face->landmarks[mesh.tri[3 * t2 + 2]];
+                    /* triangles sharing a vertex with t are the same stretch of surface */
+                    const int *v2 = t2 >= 0 ? &mesh.tri[3 * t2] : NULL;
+                    int neighbour = v2 && (v2[0] == v[0] || v2[0] == v[1] || v2[0] == v[2] || v2[1] == v[0] ||
+                                           v2[1] == v[1] || v2[1] == v[2] || v2[2] == v[0] || v2[2] == v[1] ||
+                                           v2[2] == v[2]);
+                    if (t2 >= 0 && t2 != t && !neighbour) {
+                        const float *a = face->landmarks[v2[0]], *bb = face->landmarks[v2[1]], *c = face->landmarks[v2[2]];
                         double area = (double)(bb[0] - a[0]) * (c[1] - a[1]) - (double)(bb[1] - a[1]) * (c[0] - a[0]);
                         double wa = ((bb[0] - px) * (c[1] - py) - (bb[1] - py) * (c[0] - px)) / area;
                         double wb = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) / area;
                         double z2 = ds * (wa * a[2] + wb * bb[2] + (1 - wa - wb) * c[2]);
-                        if (z2 > pz + occlusion_eps) visible = 0;
+                        /* the plane of t2 is read up to a pixel away from where it was rasterised:
+                         * allow its depth change over one pixel, |dz/dx| + |dz/dy| */
+                        double dzdx = ds * ((bb[1] - c[1]) * a[2] + (c[1] - a[1]) * bb[2] + (a[1] - bb[1]) * c[2]) / area;
+                        double dzdy = ds * ((c[0] - bb[0]) * a[2] + (a[0] - c[0]) * bb[2] + (bb[0] - a[0]) * c[2]) / area;
+                        if (z2 > pz + occlusion_eps + fabs(dzdx) + fabs(dzdy)) visible = 0;
                     }
                 }
             }

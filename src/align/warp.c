@@ -217,8 +217,8 @@ hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, con
     return st;
 }
 
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_image *photo,
-                             hd_poisson_report *report)
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, double tolerance,
+                             hd_image *photo, hd_poisson_report *report)
 {
     if (report) memset(report, 0, sizeof *report);
     hd_status st = check_face(face);
@@ -250,7 +250,7 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
                                      ? 1.0f
                                      : 0.0f;
             }
-        st = hd_poisson_blend(&warped, &region, r.x0, r.y0, 0, photo, report);
+        st = hd_poisson_blend(&warped, &region, r.x0, r.y0, tolerance, photo, report);
     }
     hd_image_free(&warped);
     hd_image_free(&coverage);
