@@ -21,7 +21,7 @@ else
 fi
 if [ ! -f "$model" ]; then
     echo "demo: the model $model is missing: the demo needs the shipped model" >&2
-    echo "demo: (train one with 'hdnet train', see docs/usage.md, or set HDNET_MODEL=path)" >&2
+    echo "demo: (it ships with the project; or train one with 'hdnet train' and set HDNET_MODEL=path)" >&2
     exit 1
 fi
 if [ ! -d "$faces" ]; then
@@ -52,9 +52,9 @@ echo "== delight $first -> $out/delight.png"
 cat <<DONE
 
 Done. Results in $out/:
-  $out/sheet.png                     contact sheet: $name | delit | relit under presets 0..6
-  $out/decompose/                    per face: albedo, shading (PNG16 and PFM), normal, light, reconstruction, sheet
-  $out/relight/$name.preset0..6.png  relit under each preset
-  $out/transfer.png                  $name under the light of $(basename "$second") ($out/ref.light.txt, $out/ref.light.png)
-  $out/delight.png                   $name under flat light (its albedo)
+  $out/sheet.png: contact sheet, $name | delit | relit under presets 0..6
+  $out/decompose/: per face albedo, shading (PNG16 and PFM), normal, light, reconstruction, sheet
+  $out/relight/$name.preset0.png .. preset6.png: relit under each preset
+  $out/transfer.png: $name under the light of $(basename "$second") ($out/ref.light.txt, $out/ref.light.png)
+  $out/delight.png: $name under flat light (its albedo)
 DONE
