@@ -295,7 +295,8 @@ int hd_synth_size(const hd_synth *synth);
 hd_status hd_synth_subject_make(const hd_synth *synth, uint64_t seed, int subject, hd_synth_subject **out);
 void hd_synth_subject_free(hd_synth_subject *subject);
 /* Image `image` of a subject: its own light and (with pose_jitter_deg > 0) pose, drawn from the
- * stream (seed, subject, image). `out` is allocated. */
+ * stream (seed, subject, image). `out` must be zero-initialised ({0}) or hold the images of an
+ * earlier call, whose buffers are then reused; free it with hd_synth_face_free. */
 hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
                           float pose_jitter_deg, hd_synth_face *out);
 void hd_synth_face_free(hd_synth_face *face);

@@ -1,0 +1,223 @@
+/* test_synth.c: the synthetic-face generator: determinism for a seed (and independence of the
+ * thread count), image = albedo x shading (in memory exactly, on disk within quantisation),
+ * shading = s(normal_gt, light) by the light module's own basis, the least-squares light of the
+ * ground truth recovers the ground-truth light, a subject's albedo is the same in all its images,
+ * landmarks sit where SPEC section 2 puts them, and the coarse normals are off by tens of degrees. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "test.h"
+#include "core/core.h"
+
+static void use_source_models(void)
+{
+    const char *td = getenv("HDNET_TESTDATA");
+    if (!td || getenv("HDNET_DATA")) return;
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", td);
+    char *slash = strrchr(dir, '/'); /* HDNET_TESTDATA is <source>/tests/data */
+    if (slash) *slash = '\0';
+    size_t len = strlen(dir);
+    snprintf(dir + len, sizeof dir - len, "/../models");
+    setenv("HDNET_DATA", dir, 1);
+}
+
+static int same_image(const hd_image *a, const hd_image *b)
+{
+    return a->width == b->width && a->height == b->height && a->channels == b->channels &&
+           memcmp(a->data, b->data, (size_t)a->width * a->height * a->channels * sizeof(float)) == 0;
+}
+
+static double angle_deg(const float *a, const float *b, size_t P, size_t i)
+{
+    double d = (double)a[i] * b[i] + (double)a[P + i] * b[P + i] + (double)a[2 * P + i] * b[2 * P + i];
+    d = d > 1 ? 1 : d < -1 ? -1 : d;
+    return acos(d) * 180.0 / M_PI;
+}
+
+static void test_render(void)
+{
+    const int S = 64;
+    const size_t P = (size_t)S * S;
+    hd_synth *s = NULL;
+    if (hd_synth_create(S, &s) != HD_OK) {
+        fprintf(stderr, "hd_synth_create: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    CHECK(hd_synth_size(s) == S);
+    hd_synth_subject *a = NULL, *a2 = NULL, *b = NULL;
+    CHECK(hd_synth_subject_make(s, 7, 3, &a) == HD_OK);
+    CHECK(hd_synth_subject_make(s, 7, 3, &a2) == HD_OK);
+    CHECK(hd_synth_subject_make(s, 7, 4, &b) == HD_OK);
+    hd_synth_face f0 = {0}, f0b = {0}, f1 = {0}, g0 = {0};
+    CHECK(hd_synth_render(s, a, 0, 8.0f, &f0) == HD_OK);
+    CHECK(hd_synth_render(s, a2, 0, 8.0f, &f0b) == HD_OK);
+    CHECK(hd_synth_render(s, a, 1, 8.0f, &f1) == HD_OK);
+    CHECK(hd_synth_render(s, b, 0, 8.0f, &g0) == HD_OK);
+    /* deterministic */
+    CHECK(same_image(&f0.image, &f0b.image) && same_image(&f0.normal_gt, &f0b.normal_gt));
+    CHECK(memcmp(f0.light, f0b.light, sizeof f0.light) == 0);
+    /* another image of the subject: other light, other pose, same albedo where both are visible */
+    CHECK(memcmp(f0.light, f1.light, sizeof f0.light) != 0);
+    CHECK(f0.yaw_deg != f1.yaw_deg && fabsf(f0.yaw_deg) <= 8.0f && fabsf(f1.pitch_deg) <= 8.0f);
+    int both = 0, albedo_same = 1;
+    for (size_t i = 0; i < P; i++)
+        if (f0.mask.data[i] > 0.5f && f1.mask.data[i] > 0.5f) {
+            both++;
+            for (int c = 0; c < 3; c++) albedo_same &= f0.albedo.data[c * P + i] == f1.albedo.data[c * P + i];
+        }
+    CHECK(both > (int)P / 3 && albedo_same);
+    /* another subject: another albedo */
+    double diff = 0;
+    for (size_t i = 0; i < 3 * P; i++) diff += fabs(f0.albedo.data[i] - g0.albedo.data[i]);
+    CHECK(diff > 0.01 * (double)P);
+    /* rendering equation and ground truth consistency on every masked texel */
+    int bad_eq = 0, bad_sh = 0, bad_unit = 0, bad_out = 0, n = 0;
+    double err_sum = 0;
+    for (size_t i = 0; i < P; i++) {
+        if (f0.mask.data[i] <= 0.5f) {
+            float z = 0;
+            for (int c = 0; c < 3; c++) z += fabsf(f0.image.data[c * P + i]) + fabsf(f0.normal_gt.data[c * P + i]);
+            bad_out += z != 0.0f || f0.shading.data[i] != 0.0f;
+            continue;
+        }
+        n++;
+        float ng[3] = {f0.normal_gt.data[i], f0.normal_gt.data[P + i], f0.normal_gt.data[2 * P + i]};
+        float nc[3] = {f0.normal.data[i], f0.normal.data[P + i], f0.normal.data[2 * P + i]};
+        bad_unit += fabsf(ng[0] * ng[0] + ng[1] * ng[1] + ng[2] * ng[2] - 1) > 1e-4f || ng[2] <= 0;
+        bad_unit += fabsf(nc[0] * nc[0] + nc[1] * nc[1] + nc[2] * nc[2] - 1) > 1e-4f;
+        float sh = hd_sh_shade(f0.light, ng);
+        bad_sh += fabsf(sh - f0.shading.data[i]) > 1e-5f || f0.shading.data[i] < 0;
+        for (int c = 0; c < 3; c++) {
+            float v = f0.albedo.data[c * P + i] * f0.shading.data[i];
+            v = v > 1 ? 1 : v;
+            bad_eq += fabsf(v - f0.image.data[c * P + i]) > 1e-6f;
+        }
+        err_sum += angle_deg(f0.normal.data, f0.normal_gt.data, P, i);
+    }
+    CHECK(bad_eq == 0);
+    CHECK(bad_sh == 0);
+    CHECK(bad_unit == 0);
+    CHECK(bad_out == 0);
+    /* the coarse normals (no identity, no detail) are off by tens of degrees */
+    double coarse = err_sum / (n ? n : 1);
+    fprintf(stderr, "coarse-normal error at %d: %.1f degrees over %d texels\n", S, coarse, n);
+    CHECK(coarse > 8.0 && coarse < 45.0);
+    /* least squares on the ground truth gives the ground-truth light back */
+    float fit[HD_SH_COEFFS];
+    CHECK(hd_sh_fit(f0.normal_gt.data, f0.shading.data, f0.mask.data, S * S, fit) == HD_OK);
+    for (int k = 0; k < HD_SH_COEFFS; k++) CHECK_NEAR(fit[k], f0.light[k], 2e-3);
+    /* SPEC section 2: eyes, nose tip, mouth and chin are face texels in a frontal image; the
+     * texture's corner is not */
+    hd_synth_face fr = {0};
+    CHECK(hd_synth_render(s, a, 2, 0.0f, &fr) == HD_OK);
+    CHECK(fr.yaw_deg == 0 && fr.pitch_deg == 0 && fr.roll_deg == 0);
+    static const float marks[][2] = {{0.5f, 0.547f}, {0.33f, 0.376f}, {0.67f, 0.376f}, {0.45f, 0.695f}, {0.5f, 0.94f}, {0.5f, 0.12f}};
+    for (size_t k = 0; k < sizeof marks / sizeof marks[0]; k++) {
+        int x = (int)(marks[k][0] * S), y = (int)(marks[k][1] * S);
+        CHECK(fr.mask.data[(size_t)y * S + x] == 1.0f);
+    }
+    CHECK(fr.mask.data[0] == 0.0f);
+    /* the nose tip faces the viewer, the image-left cheek turns left */
+    size_t nose = (size_t)(0.547f * S) * S + (size_t)(0.5f * S);
+    CHECK(fr.normal.data[2 * P + nose] > 0.7f);
+    size_t cheek = (size_t)(0.55f * S) * S + (size_t)(0.12f * S);
+    CHECK(fr.mask.data[cheek] == 0.0f || fr.normal.data[cheek] < 0.0f);
+    /* reused buffers give the same result as fresh ones */
+    CHECK(hd_synth_render(s, a, 0, 8.0f, &fr) == HD_OK);
+    CHECK(same_image(&fr.image, &f0.image) && same_image(&fr.mask, &f0.mask));
+    /* bad arguments */
+    hd_synth_face bad = {0};
+    CHECK(hd_synth_render(s, a, -1, 0.0f, &bad) == HD_ERR_ARG);
+    CHECK(hd_synth_render(s, a, 0, 90.0f, &bad) == HD_ERR_RANGE);
+    hd_synth *t = NULL;
+    CHECK(hd_synth_create(8, &t) == HD_ERR_RANGE && t == NULL);
+    hd_synth_face_free(&f0);
+    hd_synth_face_free(&f0b);
+    hd_synth_face_free(&f1);
+    hd_synth_face_free(&g0);
+    hd_synth_face_free(&fr);
+    hd_synth_subject_free(a);
+    hd_synth_subject_free(a2);
+    hd_synth_subject_free(b);
+    hd_synth_free(s);
+}
+
+static int files_equal(const char *p, const char *q)
+{
+    char *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    int eq = hd_read_file(p, 1 << 24, &a, &na) == HD_OK && hd_read_file(q, 1 << 24, &b, &nb) == HD_OK && na == nb &&
+             memcmp(a, b, na) == 0;
+    free(a);
+    free(b);
+    return eq;
+}
+
+/* A whole set on disk, written with 1 and with 2 threads: byte-identical; the files read back
+ * satisfy image = albedo x shading within quantisation. */
+static void test_write_set(void)
+{
+    hd_synth_options o = {3, 3, 32, 11, 5.0f};
+    hd_set_threads(1);
+    CHECK(hd_synth_write_set("set1", &o, NULL, NULL) == HD_OK);
+    hd_set_threads(2);
+    CHECK(hd_synth_write_set("set2", &o, NULL, NULL) == HD_OK);
+    static const char *const suffix[] = {".png", ".mask.png", ".normal.png", ".albedo.png", ".normal_gt.png",
+                                         ".shading.png", ".shading.pfm", ".light.txt"};
+    for (int sub = 0; sub < 3; sub++)
+        for (int im = 0; im < 3; im++)
+            for (int k = 0; k < 8; k++) {
+                char p[256], q[256];
+                snprintf(p, sizeof p, "set1/subject_%04d/%04d%s", sub, im, suffix[k]);
+                snprintf(q, sizeof q, "set2/subject_%04d/%04d%s", sub, im, suffix[k]);
+                if (!files_equal(p, q)) {
+                    fprintf(stderr, "%s and %s differ (or are missing)\n", p, q);
+                    test_failures++;
+                }
+            }
+    CHECK(files_equal("set1/preview.png", "set2/preview.png"));
+    hd_image img = {0}, alb = {0}, sh = {0}, shp = {0}, mask = {0};
+    float light[HD_SH_COEFFS];
+    CHECK(hd_image_read("set1/subject_0001/0002.png", &img) == HD_OK);
+    CHECK(hd_image_read("set1/subject_0001/0002.albedo.png", &alb) == HD_OK);
+    CHECK(hd_image_read("set1/subject_0001/0002.shading.pfm", &sh) == HD_OK);
+    CHECK(hd_image_read("set1/subject_0001/0002.shading.png", &shp) == HD_OK);
+    CHECK(hd_image_read("set1/subject_0001/0002.mask.png", &mask) == HD_OK);
+    CHECK(hd_light_read("set1/subject_0001/0002.light.txt", light) == HD_OK);
+    if (img.data && alb.data && sh.data && shp.data && mask.data && img.channels == 3 && alb.channels == 3) {
+        size_t P = 32 * 32;
+        int bad = 0, masked = 0;
+        for (size_t i = 0; i < P; i++) {
+            if (mask.data[i] <= 0.5f) continue;
+            masked++;
+            bad += fabsf(2.0f * shp.data[i] - sh.data[i]) > 2.0f / 65535.0f;
+            for (int c = 0; c < 3; c++) {
+                float v = alb.data[c * P + i] * sh.data[i];
+                v = v > 1 ? 1 : v;
+                /* both PNGs are 8 bit: half a step each, the albedo's scaled by the shading */
+                bad += fabsf(v - img.data[c * P + i]) > (0.5f + 0.5f * sh.data[i]) / 255.0f + 1e-6f;
+            }
+        }
+        CHECK(masked > 200);
+        CHECK(bad == 0);
+    }
+    hd_image_free(&img);
+    hd_image_free(&alb);
+    hd_image_free(&sh);
+    hd_image_free(&shp);
+    hd_image_free(&mask);
+    /* bad options are refused with a reason */
+    hd_synth_options z = {0, 1, 32, 1, 0};
+    CHECK(hd_synth_write_set("set3", &z, NULL, NULL) == HD_ERR_RANGE);
+    CHECK(strstr(hd_error(), "subjects") != NULL);
+}
+
+int main(void)
+{
+    use_source_models();
+    test_render();
+    test_write_set();
+    return test_summary("test_synth");
+}

@@ -1,0 +1,58 @@
+/* cmd_synth.c: `hdnet synth`: write a set of paired synthetic faces with full ground truth in the
+ * SPEC section 5 layout (docs/synthetic-data.md describes the model of faces and lights). */
+#include <stdlib.h>
+#include "cli.h"
+#include "core/core.h"
+
+HD_COMMAND("synth", cmd_synth, "generate paired synthetic faces with ground truth (albedo, normals, shading, light)")
+
+static void on_progress(void *ctx, long done, long total)
+{
+    hd_progress *p = ctx;
+    (void)total;
+    if (done < p->total) hd_progress_update(p, done, NULL);
+}
+
+int cmd_synth(int argc, char **argv)
+{
+    int subjects = 0, per_subject = 0, size = 256, seed = 1, threads = 0;
+    float jitter = 0.0f;
+    const hd_opt opts[] = {
+        {"subjects", 0, HD_OPT_INT, &subjects, "N", "number of subjects (identities); required"},
+        {"per-subject", 0, HD_OPT_INT, &per_subject, "K", "images per subject, each with its own light (and pose); required"},
+        {"size", 0, HD_OPT_INT, &size, "S", "side of the aligned texture in pixels (default 256; 16..4096)"},
+        {"seed", 0, HD_OPT_INT, &seed, "X", "random seed; the same seed gives the same set (default 1)"},
+        {"pose-jitter", 0, HD_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
+        {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--threads N]",
+        "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
+        "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
+        "YYYY.mask.png, YYYY.normal.png (coarse normals: the undeformed canonical mesh), and the\n"
+        "ground truth YYYY.albedo.png, YYYY.normal_gt.png, YYYY.shading.png (16 bit, shading/2),\n"
+        "YYYY.shading.pfm (exact) and YYYY.light.txt; plus OUT/preview.png, a sheet of the first\n"
+        "subjects (albedo, normals, shading, images). A subject keeps its shape and albedo across\n"
+        "its images; light (and pose) change per image.",
+        opts, 1, 1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    const char *out = pos[0];
+    free(pos);
+    if (subjects < 1) return hd_usage_error(&spec, "--subjects N (N >= 1) is required");
+    if (per_subject < 1) return hd_usage_error(&spec, "--per-subject K (K >= 1) is required");
+    if (size < 16 || size > 4096) return hd_usage_error(&spec, "--size %d outside [16, 4096]", size);
+    if (!(jitter >= 0.0f && jitter <= 45.0f)) return hd_usage_error(&spec, "--pose-jitter %g outside [0, 45]", jitter);
+    if (threads < 0) return hd_usage_error(&spec, "--threads %d must be >= 0", threads);
+    if (seed < 0) return hd_usage_error(&spec, "--seed %d must be >= 0", seed);
+    if ((long)subjects * per_subject > 100000000L) return hd_usage_error(&spec, "too many images (%d x %d)", subjects, per_subject);
+    if (threads > 0) hd_set_threads(threads);
+    hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter};
+    hd_progress p;
+    hd_progress_start(&p, "synth", (long)subjects * per_subject);
+    if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return hd_report("synth");
+    hd_progress_finish(&p, (long)subjects * per_subject, NULL);
+    return HD_EXIT_OK;
+}
