@@ -1,0 +1,328 @@
+/* conv3x3.c: the 3x3 convolution (padding 1, stride 1 or 2, bias, optional fused leaky ReLU),
+ * the hot path of every network here. A plan per shape picks a path and owns its scratch memory:
+ *   naive     direct loops, the reference the tests hold the others against;
+ *   portable  im2col over bands of output rows + CBLAS sgemm (OpenBLAS);
+ *   dnnl      oneDNN primitives (conv3x3_dnnl.c), when built with HD_HAVE_DNNL.
+ * Backward ACCUMULATES into dinp, dw, db (a NULL one is skipped) and first turns dout, in place,
+ * into the gradient before the activation.
+ *
+ * Letters: B batch, C / OC input / output channels, H, W input size, Ho, Wo output size,
+ * K = 9 C the im2col depth, N = HoWo output pixels.
+ */
+#include <string.h>
+#include <cblas.h>
+#include "nn/conv3x3_impl.h"
+
+/* Budget of one im2col band, in floats (8 MB): bands of output rows are processed in turn. */
+#define COL_BUDGET (2u << 20)
+/* Work (multiply-adds, or values / 8) below which loops stay on one thread: on a shared machine
+ * a parallel region costs more than a small layer. */
+#define PAR_MIN 2000000.0
+
+int hd_conv3x3_out_h(const hd_conv3x3 *p) { return p->Ho; }
+int hd_conv3x3_out_w(const hd_conv3x3 *p) { return p->Wo; }
+
+hd_status hd_conv3x3_plan(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
+                          hd_act act, float slope, hd_conv_path path)
+{
+    *plan = NULL;
+    if (B < 1 || C < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2))
+        return hd_fail(HD_ERR_ARG, "conv3x3: bad shape B=%d C=%d H=%d W=%d OC=%d stride=%d", B, C, H,
+                       W, OC, stride);
+    hd_conv3x3 *p = hd_calloc(1, sizeof *p);
+    if (!p) return HD_ERR_NOMEM;
+    p->B = B, p->C = C, p->H = H, p->W = W, p->OC = OC, p->stride = stride;
+    p->act = act, p->slope = slope;
+    p->Ho = (H - 1) / stride + 1;
+    p->Wo = (W - 1) / stride + 1;
+    p->macs = 9.0 * B * C * OC * p->Ho * p->Wo;
+    hd_status st = HD_OK;
+#ifdef HD_HAVE_DNNL
+    if (path == HD_CONV_AUTO) {
+        st = hd_conv3x3_dnnl_plan(p);
+        if (st == HD_OK) {
+            p->path = HD_CONV_AUTO;
+            *plan = p;
+            return HD_OK;
+        }
+        hd_clear_error(); /* fall back to the portable path */
+        st = HD_OK;
+    }
+#endif
+    if (path == HD_CONV_NAIVE) {
+        p->path = HD_CONV_NAIVE;
+    } else {
+        p->path = HD_CONV_PORTABLE;
+        size_t K = (size_t)9 * C, row = K * p->Wo, rows = COL_BUDGET / (row ? row : 1);
+        if (rows < 1) rows = 1;
+        if (rows > (size_t)p->Ho) rows = p->Ho;
+        p->band_rows = (int)rows;
+        size_t n;
+        if (!hd_mul_size(row, rows, &n)) st = hd_fail(HD_ERR_RANGE, "conv3x3: im2col band too large");
+        else if (!(p->col = hd_malloc(n * sizeof(float)))) st = HD_ERR_NOMEM;
+    }
+    if (st != HD_OK) {
+        hd_conv3x3_free(p);
+        return st;
+    }
+    *plan = p;
+    return HD_OK;
+}
+
+void hd_conv3x3_free(hd_conv3x3 *p)
+{
+    if (!p) return;
+#ifdef HD_HAVE_DNNL
+    hd_conv3x3_dnnl_free(p);
+#endif
+    free(p->col);
+    free(p);
+}
+
+/* ---- naive: direct loops */
+
+static void naive_forward(const hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b)
+{
+    /* out(n, o, y, x) = b(o) + sum_{c, i, j} w(o, c, i, j) inp(n, c, s y + i - 1, s x + j - 1) */
+    int C = p->C, H = p->H, W = p->W, OC = p->OC, Ho = p->Ho, Wo = p->Wo, s = p->stride;
+#pragma omp parallel for schedule(static) if (p->macs > PAR_MIN)
+    for (long no = 0; no < (long)p->B * OC; no++) {
+        int n = (int)(no / OC), o = (int)(no % OC);
+        float *dst = out + (size_t)no * Ho * Wo;
+        for (int y = 0; y < Ho; y++)
+            for (int x = 0; x < Wo; x++) {
+                float acc = b ? b[o] : 0.0f;
+                for (int c = 0; c < C; c++) {
+                    const float *src = inp + ((size_t)n * C + c) * H * W;
+                    const float *k = w + ((size_t)o * C + c) * 9;
+                    for (int i = 0; i < 3; i++) {
+                        int iy = s * y + i - 1;
+                        if (iy < 0 || iy >= H) continue;
+                        for (int j = 0; j < 3; j++) {
+                            int ix = s * x + j - 1;
+                            if (ix < 0 || ix >= W) continue;
+                            acc += k[i * 3 + j] * src[(size_t)iy * W + ix];
+                        }
+                    }
+                }
+                dst[(size_t)y * Wo + x] = acc;
+            }
+    }
+}
+
+static void naive_backward(const hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
+                           const float *inp, const float *w)
+{
+    int B = p->B, C = p->C, H = p->H, W = p->W, OC = p->OC, Ho = p->Ho, Wo = p->Wo, s = p->stride;
+    /* dinp(n, c, s y + i - 1, s x + j - 1) += w(o, c, i, j) dout(n, o, y, x) */
+    if (dinp) {
+#pragma omp parallel for schedule(static) if (p->macs > PAR_MIN)
+        for (long nc = 0; nc < (long)B * C; nc++) {
+            int n = (int)(nc / C), c = (int)(nc % C);
+            float *d = dinp + (size_t)nc * H * W;
+            for (int o = 0; o < OC; o++) {
+                const float *g = dout + ((size_t)n * OC + o) * Ho * Wo;
+                const float *k = w + ((size_t)o * C + c) * 9;
+                for (int y = 0; y < Ho; y++)
+                    for (int x = 0; x < Wo; x++) {
+                        float gv = g[(size_t)y * Wo + x];
+                        for (int i = 0; i < 3; i++) {
+                            int iy = s * y + i - 1;
+                            if (iy < 0 || iy >= H) continue;
+                            for (int j = 0; j < 3; j++) {
+                                int ix = s * x + j - 1;
+                                if (ix < 0 || ix >= W) continue;
+                                d[(size_t)iy * W + ix] += k[i * 3 + j] * gv;
+                            }
+                        }
+                    }
+            }
+        }
+    }
+    /* dw(o, c, i, j) += sum_{n, y, x} dout(n, o, y, x) inp(n, c, s y + i - 1, s x + j - 1);
+     * db(o) += sum_{n, y, x} dout(n, o, y, x) */
+    if (dw || db) {
+#pragma omp parallel for schedule(static) if (p->macs > PAR_MIN)
+        for (int o = 0; o < OC; o++) {
+            if (db) {
+                double acc = 0.0;
+                for (int n = 0; n < B; n++) {
+                    const float *g = dout + ((size_t)n * OC + o) * Ho * Wo;
+                    for (int q = 0; q < Ho * Wo; q++) acc += g[q];
+                }
+                db[o] += (float)acc;
+            }
+            if (!dw) continue;
+            for (int c = 0; c < C; c++)
+                for (int i = 0; i < 3; i++)
+                    for (int j = 0; j < 3; j++) {
+                        double acc = 0.0;
+                        for (int n = 0; n < B; n++) {
+                            const float *g = dout + ((size_t)n * OC + o) * Ho * Wo;
+                            const float *src = inp + ((size_t)n * C + c) * H * W;
+                            for (int y = 0; y < Ho; y++) {
+                                int iy = s * y + i - 1;
+                                if (iy < 0 || iy >= H) continue;
+                                for (int x = 0; x < Wo; x++) {
+                                    int ix = s * x + j - 1;
+                                    if (ix < 0 || ix >= W) continue;
+                                    acc += (double)g[(size_t)y * Wo + x] * src[(size_t)iy * W + ix];
+                                }
+                            }
+                        }
+                        dw[((size_t)o * C + c) * 9 + i * 3 + j] += (float)acc;
+                    }
+        }
+    }
+}
+
+/* ---- portable: im2col bands + sgemm */
+
+/* col(k = (c, i, j), q) for output rows y0 .. y0 + rows - 1 of image `src` (C, H, W):
+ * col = inp(c, s y + i - 1, s x + j - 1), 0 outside. col is (K, rows Wo). */
+static void im2col(const hd_conv3x3 *p, float *col, const float *src, int y0, int rows)
+{
+    int H = p->H, W = p->W, Wo = p->Wo, s = p->stride;
+    size_t N = (size_t)rows * Wo;
+#pragma omp parallel for schedule(static) if (N * p->C > PAR_MIN / 8)
+    for (int k = 0; k < 9 * p->C; k++) {
+        int c = k / 9, i = (k / 3) % 3, j = k % 3;
+        const float *plane = src + (size_t)c * H * W;
+        float *dst = col + (size_t)k * N;
+        for (int r = 0; r < rows; r++) {
+            int iy = s * (y0 + r) + i - 1;
+            float *d = dst + (size_t)r * Wo;
+            if (iy < 0 || iy >= H) {
+                memset(d, 0, (size_t)Wo * sizeof(float));
+                continue;
+            }
+            const float *row = plane + (size_t)iy * W;
+            for (int x = 0; x < Wo; x++) {
+                int ix = s * x + j - 1;
+                d[x] = (ix >= 0 && ix < W) ? row[ix] : 0.0f;
+            }
+        }
+    }
+}
+
+/* The adjoint of im2col: dsrc(c, s y + i - 1, s x + j - 1) += col(k, q). Parallel over c, so that
+ * no two threads write the same plane. */
+static void col2im(const hd_conv3x3 *p, float *dsrc, const float *col, int y0, int rows)
+{
+    int H = p->H, W = p->W, Wo = p->Wo, s = p->stride;
+    size_t N = (size_t)rows * Wo;
+#pragma omp parallel for schedule(static) if (N * p->C > PAR_MIN / 8)
+    for (int c = 0; c < p->C; c++) {
+        float *plane = dsrc + (size_t)c * H * W;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                const float *srow = col + (size_t)(c * 9 + i * 3 + j) * N;
+                for (int r = 0; r < rows; r++) {
+                    int iy = s * (y0 + r) + i - 1;
+                    if (iy < 0 || iy >= H) continue;
+                    float *d = plane + (size_t)iy * W;
+                    const float *g = srow + (size_t)r * Wo;
+                    for (int x = 0; x < Wo; x++) {
+                        int ix = s * x + j - 1;
+                        if (ix >= 0 && ix < W) d[ix] += g[x];
+                    }
+                }
+            }
+    }
+}
+
+static void portable_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b)
+{
+    /* out(o, q) = b(o) + sum_k w(o, k) col(k, q): sgemm (OC x K) (K x N) per band */
+    int C = p->C, OC = p->OC, Wo = p->Wo, K = 9 * C;
+    size_t HWi = (size_t)p->H * p->W, HWo = (size_t)p->Ho * Wo;
+    for (int n = 0; n < p->B; n++) {
+        float *dst = out + (size_t)n * OC * HWo;
+        for (int o = 0; o < OC; o++) {
+            float bv = b ? b[o] : 0.0f;
+            for (size_t q = 0; q < HWo; q++) dst[o * HWo + q] = bv;
+        }
+        for (int y0 = 0; y0 < p->Ho; y0 += p->band_rows) {
+            int rows = p->Ho - y0 < p->band_rows ? p->Ho - y0 : p->band_rows;
+            int N = rows * Wo;
+            im2col(p, p->col, inp + (size_t)n * C * HWi, y0, rows);
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, OC, N, K, 1.0f, w, K, p->col, N,
+                        1.0f, dst + (size_t)y0 * Wo, (int)HWo);
+        }
+    }
+}
+
+static void portable_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
+                              const float *inp, const float *w)
+{
+    int C = p->C, OC = p->OC, Wo = p->Wo, K = 9 * C;
+    size_t HWi = (size_t)p->H * p->W, HWo = (size_t)p->Ho * Wo;
+    for (int n = 0; n < p->B; n++) {
+        const float *g = dout + (size_t)n * OC * HWo;
+        if (db)
+            for (int o = 0; o < OC; o++) {
+                double acc = 0.0;
+                for (size_t q = 0; q < HWo; q++) acc += g[o * HWo + q];
+                db[o] += (float)acc;
+            }
+        for (int y0 = 0; y0 < p->Ho; y0 += p->band_rows) {
+            int rows = p->Ho - y0 < p->band_rows ? p->Ho - y0 : p->band_rows;
+            int N = rows * Wo;
+            const float *gb = g + (size_t)y0 * Wo;
+            if (dw) {
+                /* dw(o, k) += sum_q dout(o, q) col(k, q) */
+                im2col(p, p->col, inp + (size_t)n * C * HWi, y0, rows);
+                cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, OC, K, N, 1.0f, gb, (int)HWo,
+                            p->col, N, 1.0f, dw, K);
+            }
+            if (dinp) {
+                /* dcol(k, q) = sum_o w(o, k) dout(o, q); dinp += col2im(dcol) */
+                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, K, N, OC, 1.0f, w, K, gb,
+                            (int)HWo, 0.0f, p->col, N);
+                col2im(p, dinp + (size_t)n * C * HWi, p->col, y0, rows);
+            }
+        }
+    }
+}
+
+/* ---- dispatch */
+
+void hd_conv3x3_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b)
+{
+#ifdef HD_HAVE_DNNL
+    if (p->dnnl) {
+        hd_conv3x3_dnnl_forward(p, out, inp, w, b);
+        return;
+    }
+#endif
+    if (p->path == HD_CONV_NAIVE) naive_forward(p, out, inp, w, b);
+    else portable_forward(p, out, inp, w, b);
+    if (p->act == HD_ACT_LRELU) {
+        size_t n = (size_t)p->B * p->OC * p->Ho * p->Wo;
+        float sl = p->slope;
+#pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
+        for (size_t i = 0; i < n; i++) out[i] = out[i] > 0.0f ? out[i] : sl * out[i];
+    }
+}
+
+void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
+                         const float *out, const float *inp, const float *w)
+{
+    /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
+     * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
+    if (p->act == HD_ACT_LRELU) {
+        size_t n = (size_t)p->B * p->OC * p->Ho * p->Wo;
+        float sl = p->slope;
+#pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
+        for (size_t i = 0; i < n; i++)
+            if (!(out[i] > 0.0f)) dout[i] *= sl;
+    }
+#ifdef HD_HAVE_DNNL
+    if (p->dnnl) {
+        hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w);
+        return;
+    }
+#endif
+    if (p->path == HD_CONV_NAIVE) naive_backward(p, dinp, dw, db, dout, inp, w);
+    else portable_backward(p, dinp, dw, db, dout, inp, w);
+}

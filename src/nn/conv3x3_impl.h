@@ -1,0 +1,30 @@
+/* conv3x3_impl.h: private to src/nn: the convolution plan's fields, shared by the path
+ * dispatcher (conv3x3.c) and the oneDNN path (conv3x3_dnnl.c). */
+#ifndef HD_CONV3X3_IMPL_H
+#define HD_CONV3X3_IMPL_H
+
+#include <stdlib.h>
+#include "nn/nn.h"
+
+struct hd_conv3x3 {
+    int B, C, H, W, OC, stride, Ho, Wo;
+    double macs; /* multiply-adds of one forward */
+    hd_act act;
+    float slope;
+    hd_conv_path path; /* the path actually taken: AUTO means oneDNN */
+    int band_rows;     /* portable: output rows per im2col band */
+    float *col;        /* portable: (9 C, band_rows Wo) */
+    void *dnnl;        /* oneDNN state, or NULL */
+};
+
+#ifdef HD_HAVE_DNNL
+/* Builds the oneDNN primitives of plan p (shape fields set); HD_OK or a reason. */
+hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p);
+void hd_conv3x3_dnnl_free(hd_conv3x3 *p);
+void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b);
+/* dout already holds the gradient before the activation. */
+void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
+                              const float *inp, const float *w);
+#endif
+
+#endif /* HD_CONV3X3_IMPL_H */
