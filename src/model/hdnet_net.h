@@ -1,0 +1,130 @@
+/* hdnet_net.h: HD-Net of SPEC section 3 wired together: conv_in, ASD-Net (a_net, s_net),
+ * NLD-Net (n_net, l_net), and the PatchGAN discriminator. One flat parameter arena per network
+ * (HD-Net, discriminator) described by a parameter table in a fixed order; forward and backward
+ * over activations allocated once per (batch, size).
+ *
+ * Letters: B images in a forward (a batch of P pairs is B = 2P, image 2p is i and 2p+1 is j),
+ * H = W = size, HW = H * W, w the Common-Net width, Hb = H / 32 the bottleneck side.
+ */
+#ifndef HD_HDNET_NET_H
+#define HD_HDNET_NET_H
+
+#include "core/core.h"
+#include "nn/nn.h"
+#include "model/unet.h"
+
+#define HD_NET_FORMAT_VERSION 1
+#define HD_NET_MAX_PARAMS 128
+#define HD_DISC_PARAMS 10
+#define HD_FEAT 32      /* conv_in output channels */
+#define HD_LNET_HIDDEN 64
+
+typedef struct hd_net_config {
+    int width; /* Common-Net width w (paper: 48) */
+    int size;  /* input side, a multiple of 32 (paper: 256) */
+} hd_net_config;
+
+/* What a network's parameter arena holds: the table (names, shapes, offsets) and its total size. */
+typedef struct hd_param_table {
+    hd_param p[HD_NET_MAX_PARAMS];
+    int count;
+    size_t total; /* floats */
+} hd_param_table;
+
+/* The parameter table of HD-Net: conv_in.weight/bias, a_net.*, s_net.*, n_net.*,
+ * l_net.conv1/conv2/fc, in that order. Offsets of the sub-nets are returned for binding. */
+void hd_net_param_table(const hd_net_config *cfg, hd_param_table *t);
+/* The discriminator's table: disc.c1 .. disc.c4, disc.out (weight, bias each). */
+void hd_disc_param_table(hd_param_table *t);
+/* Index of a named parameter in a table, or -1. */
+int hd_param_find(const hd_param_table *t, const char *name);
+/* Fills a flat arena with PyTorch's default init (uniform +-1/sqrt(fan_in)), in table order,
+ * from rng. */
+void hd_params_init(const hd_param_table *t, float *params, hd_rng *rng);
+/* Checks that a configuration is usable (width 1..1024, size a positive multiple of 32). */
+hd_status hd_net_config_check(const hd_net_config *cfg);
+
+typedef enum hd_net_mode {
+    HD_NET_INFER = 0, /* forward only, no gradients, no discriminator */
+    HD_NET_TRAIN      /* gradients for HD-Net and the discriminator */
+} hd_net_mode;
+
+/* Which parameters receive gradients in hd_net_backward. */
+typedef enum hd_net_train_set {
+    HD_TRAIN_ALL = 0, /* everything (stage 1, stage 2b) */
+    HD_TRAIN_LNET     /* only l_net (stage 2a: A-, S-, N-Net frozen) */
+} hd_net_train_set;
+
+typedef struct hd_net {
+    hd_net_config cfg;
+    hd_net_mode mode;
+    int B, H, W;
+    hd_param_table table, disc_table;
+    size_t off_a, off_s, off_n; /* float offsets of the sub-nets in params */
+    float *params, *grads;      /* (table.total) */
+    float *disc_params, *disc_grads; /* (disc_table.total), TRAIN only */
+
+    hd_unet *a_net, *s_net, *n_net;
+    hd_conv3x3 *conv_in, *l_conv1, *l_conv2;
+    hd_conv3x3 *d_c1, *d_c2, *d_c3, *d_c4, *d_out;
+    int Hb, Wb, H1, W1, H2, W2; /* bottleneck, l_net conv1 and conv2 output sides */
+    int Hd[4], Wd[4], Hp, Wp;   /* discriminator sides after c1..c4, and of the patch logits */
+
+    /* Gradient checks only: when not NULL, N-Net reads this (B, 1, HW) instead of S, so that a
+     * finite difference sees S detached from N-Net as the analytic gradient does. */
+    const float *n_input_hold;
+    float *act_mem; /* one block holding every activation below */
+    size_t act_floats;
+    /* activations */
+    float *input;   /* (B, 3, HW) */
+    float *feat;    /* (B, 32, HW) conv_in output */
+    float *a_logit; /* (B, 3, HW) */
+    float *albedo;  /* (B, 3, HW) A = sigmoid(a_logit) */
+    float *s_logit; /* (B, 1, HW) */
+    float *shading; /* (B, 1, HW) S = softplus(s_logit) */
+    float *n_logit; /* (B, 3, HW) */
+    float *n_tanh;  /* (B, 3, HW) */
+    float *normal;  /* (B, 3, HW) N = normalize(tanh(n_logit)) */
+    float *l_h1;    /* (B, 64, H1 * W1) */
+    float *l_h2;    /* (B, 64, H2 * W2) */
+    float *l_pool;  /* (B, 64) */
+    float *light;   /* (B, 9) */
+    /* gradients of activations (TRAIN only) */
+    float *d_feat, *d_a_logit, *d_albedo, *d_s_logit, *d_shading, *d_n_logit, *d_n_tanh, *d_normal;
+    float *d_bottleneck, *d_l_h1, *d_l_h2, *d_l_pool, *d_light;
+    /* discriminator activations (TRAIN only): c1 output; per c2..c4 pre-norm, normed, activated */
+    float *d_in;                 /* (B, 3, HW) the discriminator's input */
+    float *dc1;                  /* (B, 64, Hd0 Wd0) */
+    float *dpre[3], *dnorm[3], *dact[3], *dmean[3], *drstd[3];
+    float *dlogit;               /* (B, 1, Hp Wp) */
+    float *g_in, *g_c1, *g_pre[3], *g_norm[3], *g_act[3], *g_logit; /* their gradients */
+} hd_net;
+
+/* Makes a network for batches of B images at cfg->size; parameters are allocated (zeroed: load or
+ * init them). */
+hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mode mode, hd_conv_path path);
+void hd_net_free(hd_net *net);
+
+/* Forward of net->input: albedo, shading, normal, light (and everything backward needs). */
+void hd_net_forward(hd_net *net);
+/* Zeroes the HD-Net parameter gradients and the activation gradients d_albedo, d_shading,
+ * d_normal, d_light (which the losses then accumulate into). */
+void hd_net_zero_grad(hd_net *net);
+/* Backward from d_albedo, d_shading, d_normal, d_light into net->grads, with SPEC section 4's
+ * paths: the N-Net input S is detached; with HD_TRAIN_LNET only l_net receives gradients.
+ * The activation gradients are consumed (overwritten). */
+void hd_net_backward(hd_net *net, hd_net_train_set set);
+
+/* Discriminator forward of net->d_in (B, 3, HW) into net->dlogit (B, 1, Hp, Wp). */
+void hd_disc_forward(hd_net *net);
+/* Discriminator backward of the last forward from net->g_logit (consumed): accumulates the input
+ * gradient into net->g_in when want_input, and parameter gradients into net->disc_grads when
+ * want_params. */
+void hd_disc_backward(hd_net *net, int want_input, int want_params);
+/* Number of patch logits per image. */
+int hd_disc_patches(const hd_net *net);
+
+/* Multiply-accumulates of one HD-Net forward of one image at cfg (for GFLOP/s). */
+double hd_net_macs(const hd_net_config *cfg);
+
+#endif /* HD_HDNET_NET_H */

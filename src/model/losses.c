@@ -1,0 +1,318 @@
+/* losses.c: SPEC section 4's seven terms with their exact definitions and gradients, and the
+ * discriminator's loss. Every term is the mean over pairs of its i and j parts, so each image's
+ * piece is weighted 1/P; weighted means use nn.h's loss pieces (mean_w). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "model/losses.h"
+
+#define HD_SMOOTH_EPS 0.01f
+
+const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv"};
+
+hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
+{
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f};
+    if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
+    else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
+    else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
+    return HD_OK;
+}
+
+hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
+{
+    memset(b, 0, sizeof *b);
+    size_t B = 2 * (size_t)pairs, HW = (size_t)size * size;
+    b->pairs = pairs;
+    b->size = size;
+    b->image = hd_calloc(B * 3 * HW, sizeof(float));
+    b->mask = hd_calloc(B * HW, sizeof(float));
+    b->coarse_normal = hd_calloc(B * 3 * HW, sizeof(float));
+    b->has_normal = hd_calloc(B, 1);
+    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal) {
+        hd_pair_batch_free(b);
+        return HD_ERR_NOMEM;
+    }
+    return HD_OK;
+}
+
+void hd_pair_batch_free(hd_pair_batch *b)
+{
+    free(b->image);
+    free(b->mask);
+    free(b->coarse_normal);
+    free(b->has_normal);
+    memset(b, 0, sizeof *b);
+}
+
+hd_status hd_losses_create(hd_losses *L, hd_net *net)
+{
+    memset(L, 0, sizeof *L);
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
+    L->net = net;
+    L->shade = hd_calloc(B * HW, sizeof(float));
+    L->d_shade = hd_calloc(B * HW, sizeof(float));
+    L->recon = hd_calloc(B * 3 * HW, sizeof(float));
+    L->d_recon = hd_calloc(B * 3 * HW, sizeof(float));
+    L->render = hd_calloc(B * 3 * HW, sizeof(float));
+    L->weight = hd_calloc(HW, sizeof(float));
+    L->light_hat = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
+    if (!L->shade || !L->d_shade || !L->recon || !L->d_recon || !L->render || !L->weight || !L->light_hat) {
+        hd_losses_free(L);
+        return HD_ERR_NOMEM;
+    }
+    return HD_OK;
+}
+
+void hd_losses_free(hd_losses *L)
+{
+    free(L->shade);
+    free(L->d_shade);
+    free(L->recon);
+    free(L->d_recon);
+    free(L->render);
+    free(L->weight);
+    free(L->light_hat);
+    memset(L, 0, sizeof *L);
+}
+
+/* SPEC section 2 with X = x, Y = -z, Z = y:
+ * s = l0 c0 - l1 c1 z + l2 c1 y + l3 c1 x - l4 c2 z x - l5 c2 z y + l6 c3 (3 y^2 - 1) + l7 c2 x y
+ *     + l8 c4 (x^2 - z^2) */
+float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3])
+{
+    const float c0 = 0.8862269254527579f, c1 = 1.023326707946488f, c2 = 0.8580855308097834f,
+                c3 = 0.2477079561003757f, c4 = 0.4290427654048917f;
+    float x = n[0], y = n[1], z = n[2];
+    dn[0] = l[3] * c1 - l[4] * c2 * z + l[7] * c2 * y + 2 * l[8] * c4 * x;
+    dn[1] = l[2] * c1 - l[5] * c2 * z + 6 * l[6] * c3 * y + l[7] * c2 * x;
+    dn[2] = -l[1] * c1 - l[4] * c2 * x - l[5] * c2 * y - 2 * l[8] * c4 * z;
+    return l[0] * c0 - l[1] * c1 * z + l[2] * c1 * y + l[3] * c1 * x - l[4] * c2 * z * x - l[5] * c2 * z * y +
+           l[6] * c3 * (3 * y * y - 1) + l[7] * c2 * x * y + l[8] * c4 * (x * x - z * z);
+}
+
+hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W;
+    L->batch = batch;
+    L->target = target;
+    for (int b = 0; b < B; b++) {
+        const float *N = net->normal + (size_t)b * 3 * HW, *A = net->albedo + (size_t)b * 3 * HW;
+        const float *m = batch->mask + (size_t)b * HW, *l = net->light + (size_t)b * HD_SH_COEFFS;
+        float *s = L->shade + (size_t)b * HW, *r = L->render + (size_t)b * 3 * HW;
+        /* s(N, l) over every pixel; render = m * A * s(N, l) */
+        hd_sh_shading_map(N, NULL, HW, l, s);
+        for (int c = 0; c < 3; c++)
+            for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
+        /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
+        if (L->hold_light_hat) continue;
+        const float *src = target == HD_LIGHT_FROM_COARSE && batch->has_normal[b]
+                               ? batch->coarse_normal + (size_t)b * 3 * HW : N;
+        hd_status st = hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW, L->light_hat + (size_t)b * HD_SH_COEFFS);
+        if (st != HD_OK) return st;
+        for (int k = 0; k < HD_SH_COEFFS; k++)
+            if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
+                return hd_fail(HD_ERR_NUMERIC, "the least-squares light target of image %d is not finite", b);
+    }
+    return HD_OK;
+}
+
+/* Propagates L->d_shade (dL/ds(N, l)) into d_normal and d_light, then clears it.
+ * forward: s_p = sum_k l_k b_k(N_p) */
+static void shade_backward(hd_losses *L)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W;
+    for (int b = 0; b < B; b++) {
+        const float *N = net->normal + (size_t)b * 3 * HW, *l = net->light + (size_t)b * HD_SH_COEFFS;
+        float *dN = net->d_normal + (size_t)b * 3 * HW, *dl = net->d_light + (size_t)b * HD_SH_COEFFS;
+        float *ds = L->d_shade + (size_t)b * HW;
+        double dlk[HD_SH_COEFFS] = {0};
+        for (int p = 0; p < HW; p++) {
+            if (ds[p] == 0.0f) continue;
+            float n[3] = {N[p], N[HW + p], N[2 * HW + p]}, g[3], basis[HD_SH_COEFFS];
+            hd_sh_shade_grad(l, n, g);
+            hd_sh_basis(n, basis);
+            dN[p] += ds[p] * g[0];
+            dN[HW + p] += ds[p] * g[1];
+            dN[2 * HW + p] += ds[p] * g[2];
+            for (int k = 0; k < HD_SH_COEFFS; k++) dlk[k] += (double)ds[p] * basis[k];
+            ds[p] = 0.0f;
+        }
+        for (int k = 0; k < HD_SH_COEFFS; k++) dl[k] += (float)dlk[k];
+    }
+}
+
+/* L_Irec = mean_m(|I - A*S|), S broadcast over colour. */
+float hd_loss_reconstruction(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        const float *A = net->albedo + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW;
+        float *rec = L->recon + (size_t)b * 3 * HW, *drec = L->d_recon + (size_t)b * 3 * HW;
+        for (int c = 0; c < 3; c++)
+            for (int p = 0; p < HW; p++) rec[(size_t)c * HW + p] = A[(size_t)c * HW + p] * S[p];
+        if (scale != 0.0f) memset(drec, 0, (size_t)3 * HW * sizeof(float));
+        sum += hd_loss_l1(scale != 0.0f ? drec : NULL, NULL, rec, L->batch->image + (size_t)b * 3 * HW,
+                          L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+        if (scale == 0.0f) continue;
+        /* rec = A * S: dA += drec * S, dS += sum_c drec * A */
+        float *dA = net->d_albedo + (size_t)b * 3 * HW, *dS = net->d_shading + (size_t)b * HW;
+        for (int c = 0; c < 3; c++)
+            for (int p = 0; p < HW; p++) {
+                dA[(size_t)c * HW + p] += drec[(size_t)c * HW + p] * S[p];
+                dS[p] += drec[(size_t)c * HW + p] * A[(size_t)c * HW + p];
+            }
+    }
+    return (float)(sum / P);
+}
+
+/* L_a = mean_{m_i m_j}(|A_i - A_j|), once per pair. */
+float hd_loss_albedo_consistency(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int HW = net->H * net->W, P = net->B / 2;
+    double sum = 0;
+    for (int p = 0; p < P; p++) {
+        int i = 2 * p, j = 2 * p + 1;
+        const float *mi = L->batch->mask + (size_t)i * HW, *mj = L->batch->mask + (size_t)j * HW;
+        for (int q = 0; q < HW; q++) L->weight[q] = mi[q] * mj[q];
+        sum += hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)i * 3 * HW : NULL,
+                          scale != 0.0f ? net->d_albedo + (size_t)j * 3 * HW : NULL, net->albedo + (size_t)i * 3 * HW,
+                          net->albedo + (size_t)j * 3 * HW, L->weight, 3, HW, scale / P);
+    }
+    return (float)(sum / P);
+}
+
+/* L_s = mean_wx(|dx S| / max(|dx S|, 0.01)) + mean_wy(|dy S| / max(|dy S|, 0.01)). */
+float hd_loss_shading_smoothness(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++)
+        sum += hd_loss_smooth(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
+                              L->batch->mask + (size_t)b * HW, net->H, net->W, HD_SMOOTH_EPS, scale / P);
+    return (float)(sum / P);
+}
+
+/* L_n = sum_p m_p ||N_bar_p - N_p||^2 / sum_p m_p (images without coarse normals contribute 0). */
+float hd_loss_normal_prior(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        if (!L->batch->has_normal[b]) continue;
+        sum += hd_loss_sqdist(scale != 0.0f ? net->d_normal + (size_t)b * 3 * HW : NULL, NULL,
+                              net->normal + (size_t)b * 3 * HW, L->batch->coarse_normal + (size_t)b * 3 * HW,
+                              L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+    }
+    return (float)(sum / P);
+}
+
+/* L_l = mean_k |l_k - l_hat_k|, l_hat detached. */
+float hd_loss_light(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        const float *l = net->light + (size_t)b * HD_SH_COEFFS, *t = L->light_hat + (size_t)b * HD_SH_COEFFS;
+        float *dl = net->d_light + (size_t)b * HD_SH_COEFFS;
+        double s = 0;
+        for (int k = 0; k < HD_SH_COEFFS; k++) {
+            float d = l[k] - t[k];
+            s += fabsf(d);
+            if (scale != 0.0f) dl[k] += scale / P / HD_SH_COEFFS * (float)((d > 0) - (d < 0));
+        }
+        sum += s / HD_SH_COEFFS;
+    }
+    return (float)(sum / P);
+}
+
+/* L_Srec = mean_m(|S - s(N, l)|): reaches S, N and l. */
+float hd_loss_shading_reconstruction(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++)
+        sum += hd_loss_l1(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL,
+                          scale != 0.0f ? L->d_shade + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
+                          L->shade + (size_t)b * HW, L->batch->mask + (size_t)b * HW, 1, HW, scale / P);
+    if (scale != 0.0f) shade_backward(L);
+    return (float)(sum / P);
+}
+
+/* L_adv = mean over patch logits of softplus(-D(m A s(N, l))) for i and j: with B = 2P images,
+ * the mean over pairs of the two per-image means is 2 * (the mean over all B * patches logits). */
+float hd_loss_adversarial(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
+    memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
+    hd_disc_forward(net);
+    memset(net->g_logit, 0, n * sizeof(float));
+    float loss = 2.0f * hd_loss_bce_logits(scale != 0.0f ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    if (scale == 0.0f) return loss;
+    memset(net->g_in, 0, B * 3 * HW * sizeof(float));
+    hd_disc_backward(net, 1, 0);
+    /* render = m * A * s: dA += g * m * s, ds += sum_c g * m * A */
+    for (size_t b = 0; b < B; b++) {
+        const float *m = L->batch->mask + b * HW, *s = L->shade + b * HW, *A = net->albedo + b * 3 * HW;
+        const float *g = net->g_in + b * 3 * HW;
+        float *dA = net->d_albedo + b * 3 * HW, *ds = L->d_shade + b * HW;
+        for (size_t c = 0; c < 3; c++)
+            for (size_t p = 0; p < HW; p++) {
+                dA[c * HW + p] += g[c * HW + p] * m[p] * s[p];
+                ds[p] += g[c * HW + p] * m[p] * A[c * HW + p];
+            }
+    }
+    shade_backward(L);
+    return loss;
+}
+
+/* L_D = mean softplus(-D(m I)) + mean softplus(D(render)), i and j, mean over pairs. */
+float hd_loss_discriminator(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
+    int grad = scale != 0.0f;
+    for (size_t b = 0; b < B; b++) {
+        const float *m = L->batch->mask + b * HW, *I = L->batch->image + b * 3 * HW;
+        float *x = net->d_in + b * 3 * HW;
+        for (size_t c = 0; c < 3; c++)
+            for (size_t p = 0; p < HW; p++) x[c * HW + p] = m[p] * I[c * HW + p];
+    }
+    hd_disc_forward(net);
+    memset(net->g_logit, 0, n * sizeof(float));
+    float real = 2.0f * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    if (grad) hd_disc_backward(net, 0, 1);
+    memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
+    hd_disc_forward(net);
+    memset(net->g_logit, 0, n * sizeof(float));
+    float fake = 2.0f * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 0, 2.0f * scale);
+    if (grad) hd_disc_backward(net, 0, 1);
+    return real + fake;
+}
+
+float hd_losses_generator(hd_losses *L, const hd_loss_weights *w, float terms[HD_LOSS_TERMS], int grad)
+{
+    float s[HD_LOSS_TERMS];
+    for (int k = 0; k < HD_LOSS_TERMS; k++) s[k] = grad ? w->w[k] : 0.0f;
+    terms[HD_LOSS_REC] = hd_loss_reconstruction(L, s[HD_LOSS_REC]);
+    terms[HD_LOSS_ALBEDO] = hd_loss_albedo_consistency(L, s[HD_LOSS_ALBEDO]);
+    terms[HD_LOSS_SMOOTH] = hd_loss_shading_smoothness(L, s[HD_LOSS_SMOOTH]);
+    terms[HD_LOSS_NORMAL] = hd_loss_normal_prior(L, s[HD_LOSS_NORMAL]);
+    terms[HD_LOSS_LIGHT] = hd_loss_light(L, s[HD_LOSS_LIGHT]);
+    terms[HD_LOSS_SREC] = hd_loss_shading_reconstruction(L, s[HD_LOSS_SREC]);
+    terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
+    double total = 0;
+    for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
+    return (float)total;
+}

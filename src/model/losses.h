@@ -1,0 +1,91 @@
+/* losses.h: the seven loss terms of SPEC section 4, each a named function that returns its value
+ * (the mean over the batch's pairs of the i and j parts) and accumulates `scale` times its
+ * gradient into the network's activation gradients (d_albedo, d_shading, d_normal, d_light);
+ * scale 0 computes the value only. Plus the discriminator's own loss, the weight presets, and one
+ * call that evaluates every term of a training step.
+ *
+ * Letters: P pairs, B = 2P images (image 2p is I_i, 2p+1 is I_j), HW pixels per image.
+ */
+#ifndef HD_LOSSES_H
+#define HD_LOSSES_H
+
+#include "model/hdnet_net.h"
+
+typedef enum hd_loss_term {
+    HD_LOSS_REC = 0, /* L_Irec: mean_m |I - A*S| */
+    HD_LOSS_ALBEDO,  /* L_a: mean_{m_i m_j} |A_i - A_j| */
+    HD_LOSS_SMOOTH,  /* L_s: shading smoothness */
+    HD_LOSS_NORMAL,  /* L_n: ||N_bar - N||^2 */
+    HD_LOSS_LIGHT,   /* L_l: mean |l - l_hat| */
+    HD_LOSS_SREC,    /* L_Srec: mean_m |S - s(N, l)| */
+    HD_LOSS_ADV,     /* L_adv: softplus(-D(m A s(N, l))) */
+    HD_LOSS_TERMS
+} hd_loss_term;
+
+/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv"): CSV columns, the
+ * --w-NAME options and the dump's loss.NAME tensors. */
+extern const char *const hd_loss_names[HD_LOSS_TERMS];
+
+typedef struct hd_loss_weights {
+    float w[HD_LOSS_TERMS];
+} hd_loss_weights;
+
+/* The weight sets of SPEC section 4: "gt" or "dpr". */
+hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w);
+
+/* Where l_hat's normals come from: the coarse normals N_bar (stage 1) or the predicted N (stage 2). */
+typedef enum hd_light_target {
+    HD_LIGHT_FROM_COARSE = 0,
+    HD_LIGHT_FROM_PREDICTED
+} hd_light_target;
+
+/* A batch of pairs as the networks see it. */
+typedef struct hd_pair_batch {
+    int pairs, size;
+    float *image;         /* (B, 3, HW) */
+    float *mask;          /* (B, HW), 1 where absent */
+    float *coarse_normal; /* (B, 3, HW), 0 where absent */
+    unsigned char *has_normal; /* (B) */
+} hd_pair_batch;
+
+hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size);
+void hd_pair_batch_free(hd_pair_batch *b);
+
+/* Scratch of the losses of one training step, made once per network. */
+typedef struct hd_losses {
+    hd_net *net;
+    const hd_pair_batch *batch;
+    hd_light_target target;
+    float *shade, *d_shade, *recon, *d_recon, *render, *weight;
+    float *light_hat; /* (B, 9) l_hat, detached */
+    int hold_light_hat; /* gradient checks only: keep light_hat as it is (detached for real) */
+} hd_losses;
+
+hd_status hd_losses_create(hd_losses *L, hd_net *net);
+void hd_losses_free(hd_losses *L);
+
+/* After hd_net_forward: computes s(N, l), the render m*A*s(N, l) and l_hat (from the coarse or the
+ * predicted normals) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
+hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target);
+
+float hd_loss_reconstruction(hd_losses *L, float scale);
+float hd_loss_albedo_consistency(hd_losses *L, float scale);
+float hd_loss_shading_smoothness(hd_losses *L, float scale);
+float hd_loss_normal_prior(hd_losses *L, float scale);
+float hd_loss_light(hd_losses *L, float scale);
+float hd_loss_shading_reconstruction(hd_losses *L, float scale);
+/* Generator side: runs the discriminator on the render (its parameters get no gradient). */
+float hd_loss_adversarial(hd_losses *L, float scale);
+/* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render
+ * detached), for i and j, averaged over pairs; accumulates scale times its gradient into
+ * net->disc_grads. */
+float hd_loss_discriminator(hd_losses *L, float scale);
+
+/* Every generator term (prepare first): terms[k] = L_k, returns sum_k w_k L_k, and accumulates
+ * its gradient into the activation gradients when grad is nonzero. */
+float hd_losses_generator(hd_losses *L, const hd_loss_weights *w, float terms[HD_LOSS_TERMS], int grad);
+
+/* s(n) = sum_k l_k b_k(n) and its gradient wrt the normal (SPEC section 2 basis). */
+float hd_sh_shade_grad(const float light[HD_SH_COEFFS], const float n[3], float dn[3]);
+
+#endif /* HD_LOSSES_H */

@@ -1,0 +1,134 @@
+/* cmd_train.c: `hdnet train`: trains HD-Net on a SPEC section 5 folder (docs/training.md):
+ * stage 1 or 2, every loss weight, learning rate, batch and iteration count as options,
+ * checkpoints with exact resume, SIGINT/SIGTERM and --time-limit stop cleanly after a checkpoint. */
+#include <math.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+#include "model/train.h"
+
+HD_COMMAND("train", cmd_train, "train HD-Net on pairs of face images (two stages, resumable)")
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_requested = 1;
+}
+
+static void warn(const char *message) { fprintf(stderr, "hdnet train: warning: %s\n", message); }
+
+int cmd_train(int argc, char **argv)
+{
+    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL;
+    int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
+    int lnet_iters = -1, quiet = 0;
+    float time_limit = 0, lr = 0;
+    float w[HD_LOSS_TERMS];
+    for (int k = 0; k < HD_LOSS_TERMS; k++) w[k] = NAN;
+    const hd_opt opts[] = {
+        {"output", 'o', HD_OPT_STRING, &out, "RUN", "the run folder (model, checkpoint, loss.csv, loss.png, samples/)"},
+        {"stage", 0, HD_OPT_INT, &stage, "1|2", "training stage (default 1; stage 2 starts from --init RUN1/model.safetensors)"},
+        {"iters", 0, HD_OPT_INT, &iters, "N", "iterations of this run in total, counting resumed ones (default 1000)"},
+        {"lnet-iters", 0, HD_OPT_INT, &lnet_iters, "N", "stage 2: iterations training L-Net only first (default iters/5)"},
+        {"batch", 0, HD_OPT_INT, &batch, "B", "pairs per iteration (default 8, or the checkpoint's)"},
+        {"size", 0, HD_OPT_INT, &size, "S", "model input side, a multiple of 32 (default 256, or the checkpoint's)"},
+        {"width", 0, HD_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
+        {"resume", 0, HD_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},
+        {"time-limit", 0, HD_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
+        {"threads", 0, HD_OPT_INT, &threads, "T", "threads (default: all)"},
+        {"lr", 0, HD_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
+        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
+        {"w-rec", 0, HD_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
+        {"w-albedo", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
+        {"w-smooth", 0, HD_OPT_FLOAT, &w[HD_LOSS_SMOOTH], "X", "weight of L_s (gt 0.1, dpr 0.01)"},
+        {"w-normal", 0, HD_OPT_FLOAT, &w[HD_LOSS_NORMAL], "X", "weight of L_n (0.5)"},
+        {"w-light", 0, HD_OPT_FLOAT, &w[HD_LOSS_LIGHT], "X", "weight of L_l (0.01)"},
+        {"w-srec", 0, HD_OPT_FLOAT, &w[HD_LOSS_SREC], "X", "weight of L_Srec (0.01)"},
+        {"w-adv", 0, HD_OPT_FLOAT, &w[HD_LOSS_ADV], "X", "weight of L_adv (gt 0.001, dpr 0.0001)"},
+        {"every", 0, HD_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
+        {"seed", 0, HD_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
+        {"init", 0, HD_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
+        {"dump-grads", 0, HD_OPT_STRING, &dump, "FILE", "write the first step's batch, parameters, losses and gradients"},
+        {"quiet", 'q', HD_OPT_FLAG, &quiet, NULL, "no progress line"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "train", "DATA -o RUN [options]",
+        "Trains HD-Net on DATA, a folder of subject folders of aligned faces with companions\n"
+        "(NAME.mask.png, NAME.normal.png; stage 1 needs the coarse normals). Each iteration takes\n"
+        "--batch random pairs of images of one subject (flipped together at random). RUN receives\n"
+        "model.safetensors (the weights, for decompose/relight), checkpoint.safetensors (for\n"
+        "--resume), loss.csv (every term, every iteration), loss.png and samples/iter_N.png\n"
+        "(input | albedo | shading | normal | reconstruction | relit with the partner's light).\n"
+        "Ctrl-C saves a checkpoint and stops; --resume continues exactly. See docs/training.md.",
+        opts, 1, 1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    const char *data = pos[0];
+    free(pos);
+    if (!out) return hd_usage_error(&spec, "-o RUN is required");
+    if (stage != 1 && stage != 2) return hd_usage_error(&spec, "--stage must be 1 or 2");
+    if (iters < 1) return hd_usage_error(&spec, "--iters must be positive");
+    if (every < 1) return hd_usage_error(&spec, "--every must be positive");
+    if (batch < 0 || size < 0 || width < 0 || threads < 0 || seed < 0 || time_limit < 0 || lr < 0)
+        return hd_usage_error(&spec, "sizes, counts, the seed, the time limit and the learning rate must not be negative");
+    if (size && size % 32) return hd_usage_error(&spec, "--size must be a multiple of 32");
+    if (resume && init) return hd_usage_error(&spec, "--resume and --init exclude each other");
+
+    hd_train_options o;
+    hd_train_defaults(&o);
+    if (hd_loss_weights_preset(weights, &o.weights) != HD_OK) return hd_usage_error(&spec, "%s", hd_error());
+    for (int k = 0; k < HD_LOSS_TERMS; k++) {
+        if (isnan(w[k])) continue;
+        if (w[k] < 0) return hd_usage_error(&spec, "--w-%s must not be negative", hd_loss_names[k]);
+        o.weights.w[k] = w[k];
+    }
+    o.data_dir = data;
+    o.run_dir = out;
+    o.stage = stage;
+    o.iters = iters;
+    o.lnet_iters = lnet_iters;
+    o.batch = batch;
+    o.size = size;
+    o.width = width;
+    o.resume = resume;
+    o.time_limit_min = time_limit;
+    o.lr = lr;
+    o.every = every;
+    o.seed = (uint64_t)seed;
+    o.init_model = init;
+    o.dump_grads = dump;
+    o.stop = &stop_requested;
+    o.warn = warn;
+    o.quiet = quiet;
+    if (threads) hd_set_threads(threads);
+
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+
+    hd_train_result r;
+    hd_status s = hd_train(&o, &r);
+    if (s != HD_OK) {
+        hd_report("train");
+        if (s == HD_ERR_NUMERIC) fprintf(stderr, "hdnet train: stopped; the last good checkpoint in %s is kept\n", out);
+        return HD_EXIT_FAIL;
+    }
+    const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
+    printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f, "
+           "disc %.5f); %s/checkpoint.safetensors written\n",
+           how, r.iteration, r.last.total, r.last.terms[0], r.last.terms[1], r.last.terms[2], r.last.terms[3],
+           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.disc, out);
+    if (r.end == HD_TRAIN_SIGNALLED) {
+        fprintf(stderr, "hdnet train: stopped by a signal; continue with --resume\n");
+        return HD_EXIT_FAIL;
+    }
+    return HD_EXIT_OK;
+}
