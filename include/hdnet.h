@@ -61,6 +61,11 @@ typedef enum hd_status {
 const char *hd_error(void);
 /* A short name for a status code ("format error", ...). */
 const char *hd_status_name(hd_status status);
+/* Every output file is written to a temporary name and renamed into place, so it appears whole
+ * or not at all. By default each is also fsynced before the rename (durable across power loss);
+ * bulk writers (data generation, batch decomposition) may turn that off for pictures with
+ * hd_set_durable_writes(0). Checkpoints and models are always fsynced. */
+void hd_set_durable_writes(int on);
 /* Number of OpenMP threads the library uses (0 = the OpenMP default). */
 void hd_set_threads(int threads);
 int hd_threads(void);
@@ -319,6 +324,72 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
 
 
 /* ---------------------------------------------------------------- evaluation (src/eval) */
+
+/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set. Accumulate image by
+ * image into hd_eval_sums, then read the row. */
+#define HD_EVAL_THRESHOLDS 3 /* normal error thresholds: 20, 25, 30 degrees */
+#define HD_EVAL_KMEANS_K 10
+#define HD_EVAL_KMEANS_SEED 20240601u
+
+typedef struct hd_eval_sums {
+    double normal_sum, normal_sum2; /* angular error, degrees */
+    long normal_n, normal_under[HD_EVAL_THRESHOLDS];
+    double albedo_abs, albedo_sq;   /* over pixels x 3 channels */
+    long albedo_n;
+    double recon_abs, recon_sq;
+    long recon_n;
+    double shading_abs;
+    long shading_n;
+} hd_eval_sums;
+
+typedef struct hd_eval_row {
+    char name[64];
+    int has_normal, has_albedo, has_recon, has_shading, has_light; /* columns this row fills */
+    double normal_mean, normal_std, normal_under[HD_EVAL_THRESHOLDS]; /* degrees; percent */
+    double albedo_mae, albedo_rmse, recon_mae, recon_rmse, shading_mae;
+    double light_accuracy; /* percent */
+} hd_eval_row;
+
+/* Each adds the masked pixels of one image (planar maps of npix pixels; mask may be NULL = all).
+ * Normals: angle between unit vectors, atan2(|a x b|, a . b) (exact near 0). Albedo and
+ * reconstruction: |p - t| and (p - t)^2 per channel (3 channels); the reconstruction is clamped to
+ * [0, 1] first, as a picture is. Shading: |p - t|. */
+void hd_eval_add_normals(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
+void hd_eval_add_albedo(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
+void hd_eval_add_recon(hd_eval_sums *sums, const float *pred, const float *input, const float *mask, int npix);
+void hd_eval_add_shading(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
+/* Fills the metric columns that received pixels (sets has_*); leaves name and light alone. */
+void hd_eval_row_from_sums(const hd_eval_sums *sums, hd_eval_row *row);
+
+/* k-means (k-means++ seeding from `seed`, then Lloyd's iterations until no point moves, at most
+ * max_iter) of n points of dim floats. centroids (k, dim) and assign (n) are filled. Ties go to the
+ * lower centroid index. k is clamped to n. */
+hd_status hd_kmeans(const float *points, int n, int dim, int k, uint64_t seed, int max_iter, float *centroids,
+                    int *assign);
+/* Lighting classification: k-means on the ground-truth lights (n, 9); each predicted light goes to
+ * its nearest centroid; the percentage that lands in its ground-truth light's cluster. */
+hd_status hd_eval_light_accuracy(const float *gt, const float *pred, int n, int k, uint64_t seed, double *accuracy);
+
+/* A whole evaluation: the set's ground truth (SPEC section 5 folders with NAME.albedo.png,
+ * NAME.normal_gt.png, NAME.shading.pfm or .png, NAME.light.txt, NAME.mask.png) scored against
+ * predictions, read from pred_dir in `hdnet decompose`'s layout (PRED/SUBJECT/NAME.albedo.png,
+ * .shading.pfm or .shading.png (s/2), .normal.png, .light.txt, .recon.png) or made by `model`
+ * (exactly one of the two). Row 0 is the prediction; then the baselines: the coarse normals
+ * (NAME.normal.png) as normals; the least-squares light of the true shading on the coarse normals
+ * (its light and shading); the per-image mean colour of the input as albedo. An image whose files
+ * are missing or broken is reported through warn (may be NULL) and skipped. */
+#define HD_EVAL_MAX_ROWS 4
+typedef struct hd_eval_report {
+    int nrows;
+    hd_eval_row rows[HD_EVAL_MAX_ROWS];
+    long images, skipped;
+    int kmeans_k;
+} hd_eval_report;
+hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
+                      void (*warn)(const char *message));
+/* The report as JSON (written atomically). */
+hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
+
 
 /* ---------------------------------------------------------------- photo alignment (src/align) */
 

@@ -54,8 +54,12 @@ typedef struct hd_atomic_file {
     char *path, *tmp_path;
 } hd_atomic_file;
 hd_status hd_atomic_open(hd_atomic_file *af, const char *path);
-/* Flushes, fsyncs and renames; on any failure removes the temporary file. */
+/* Flushes, fsyncs (unless durable writes are off: hd_set_durable_writes) and renames; on any
+ * failure removes the temporary file. Either way the rename makes the file appear whole or not
+ * at all. */
 hd_status hd_atomic_commit(hd_atomic_file *af);
+/* As hd_atomic_commit, but always fsyncs: for checkpoints and models. */
+hd_status hd_atomic_commit_durable(hd_atomic_file *af);
 /* Abandons the write: closes and removes the temporary file. */
 void hd_atomic_abort(hd_atomic_file *af);
 /* Reads a whole file (at most max_bytes) into a NUL-terminated buffer. */

@@ -52,9 +52,13 @@ void hd_atomic_abort(hd_atomic_file *af)
     atomic_release(af);
 }
 
-hd_status hd_atomic_commit(hd_atomic_file *af)
+static int durable_writes = 1;
+
+void hd_set_durable_writes(int on) { durable_writes = on != 0; }
+
+static hd_status atomic_commit(hd_atomic_file *af, int sync)
 {
-    int failed = ferror(af->f) || fflush(af->f) != 0 || fsync(fileno(af->f)) != 0;
+    int failed = ferror(af->f) || fflush(af->f) != 0 || (sync && fsync(fileno(af->f)) != 0);
     int err = errno;
     if (fclose(af->f) != 0 && !failed) {
         failed = 1;
@@ -74,6 +78,10 @@ hd_status hd_atomic_commit(hd_atomic_file *af)
     atomic_release(af);
     return HD_OK;
 }
+
+hd_status hd_atomic_commit(hd_atomic_file *af) { return atomic_commit(af, durable_writes); }
+
+hd_status hd_atomic_commit_durable(hd_atomic_file *af) { return atomic_commit(af, 1); }
 
 hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size)
 {

@@ -441,7 +441,7 @@ hd_status hd_safetensors_write(const char *path, const hd_tensor *tensors, int c
         for (int d = 0; d < tensors[i].ndim; d++) floats *= (size_t)tensors[i].shape[d];
         if (floats > 0) fwrite(tensors[i].data, sizeof(float), floats, af.f);
     }
-    status = hd_atomic_commit(&af);
+    status = hd_atomic_commit_durable(&af);
 done:
     free(json);
     cJSON_Delete(root);
