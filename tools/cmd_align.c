@@ -46,7 +46,7 @@ static hd_status collect(const char *arg, char ***list, int *count, int *cap)
             n++;
         }
         closedir(d);
-        qsort(names, (size_t)n, sizeof *names, compare_strings);
+        if (n > 1) qsort(names, (size_t)n, sizeof *names, compare_strings);
     } else {
         names = malloc(sizeof *names);
         if (names && (names[0] = strdup(arg))) n = 1;

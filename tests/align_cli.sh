@@ -1,0 +1,72 @@
+#!/bin/sh
+# align_cli.sh: `hdnet align` and `hdnet blend` from the command line: the bundled photo gives one
+# face and its five files; a photo without a face, a tiny one, a huge one and bad paths give clear
+# messages and the documented exit codes; a texture warps back and blends into the photo.
+set -u
+root=$(cd "$(dirname "$0")/.." && pwd)
+photo="$root/examples/astronaut.png"
+fail() { echo "align_cli: $*" >&2; exit 1; }
+# expect CODE PATTERN cmd...: runs cmd, checks its exit code and that stderr+stdout match PATTERN
+expect() {
+    want=$1 pattern=$2
+    shift 2
+    "$@" >out.txt 2>err.txt
+    got=$?
+    [ "$got" -eq "$want" ] || { cat out.txt err.txt >&2; fail "'$*' exited $got, expected $want"; }
+    cat out.txt err.txt | grep -q -- "$pattern" || { cat out.txt err.txt >&2; fail "'$*' did not say '$pattern'"; }
+}
+# A black PFM photo of W x H (gray): header, then W*H little-endian float zeros.
+black_pfm() {
+    printf 'Pf\n%d %d\n-1.0\n' "$2" "$3" >"$1"
+    head -c $(($2 * $3 * 4)) /dev/zero >>"$1"
+}
+
+# the bundled photo: exactly one face, five files
+expect 0 "1 face(s) from 1 photo(s)" "$HDNET" align "$photo" -o aligned --size 128
+for f in face0.png face0.mask.png face0.normal.png face0.landmarks.txt face0.warp.txt; do
+    [ -s "aligned/astronaut/$f" ] || fail "aligned/astronaut/$f is missing"
+done
+[ ! -e aligned/astronaut/face1.png ] || fail "more than one face in the astronaut photo"
+[ "$(wc -l <aligned/astronaut/face0.landmarks.txt)" -eq 468 ] || fail "landmarks file is not 468 lines"
+head -1 aligned/astronaut/face0.warp.txt | grep -q '^hdnet-warp 1$' || fail "warp file has no header"
+grep -q '^size 128$' aligned/astronaut/face0.warp.txt || fail "warp file does not record --size 128"
+
+# no face, tiny, huge: reported, exit 1 when nothing at all was found
+black_pfm black.pfm 256 256
+expect 1 "black.pfm: no face found" "$HDNET" align black.pfm -o none
+black_pfm tiny.pfm 8 8
+expect 1 "tiny.pfm: no face found" "$HDNET" align tiny.pfm -o none
+printf 'PF\n40000 40000\n-1.0\n' >huge.pfm
+expect 1 "huge.pfm" "$HDNET" align huge.pfm -o none
+# a batch with a face-less photo still succeeds when another has a face
+mkdir -p batch
+cp "$photo" batch/astronaut.png
+expect 0 "blended" "$HDNET" blend --source black.pfm --target black.pfm -o batch/black.png
+expect 0 "no face found" "$HDNET" align batch -o batch_out
+grep -q "1 face(s) from 2 photo(s)" out.txt || fail "batch summary wrong: $(cat out.txt)"
+[ -s batch_out/astronaut/face0.png ] || fail "batch did not write the astronaut's face"
+[ ! -e batch_out/black ] || fail "a folder was written for the face-less photo"
+
+# bad paths and bad options
+expect 1 "no-such.png" "$HDNET" align no-such.png -o x
+expect 2 "-o DIR is required" "$HDNET" align "$photo"
+expect 2 "--size" "$HDNET" align "$photo" -o x --size 8
+expect 1 "" "$HDNET" align "$photo" -o /dev/null/x
+mkdir -p empty
+expect 1 "no .png/.jpg/.jpeg photo" "$HDNET" align empty -o x
+
+# blend: the face's own texture warped back (round trip), an offset paste, errors
+a=aligned/astronaut
+expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
+    --target "$photo" -o roundtrip.png
+[ -s roundtrip.png ] || fail "blend wrote no output"
+expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --target "$photo" \
+    --offset 300,300 -o pasted.png
+expect 1 "the mask must be source-sized" "$HDNET" blend --source $a/face0.png --mask "$photo" --target "$photo" -o x.png
+expect 1 "aligned from a 512x512 photo" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt --target black.pfm -o x.png
+printf 'hdnet-warp 1\nphoto 512 512\nsize abc\n' >bad.warp.txt
+expect 1 "bad.warp.txt:3" "$HDNET" blend --source $a/face0.png --warp bad.warp.txt --target "$photo" -o x.png
+expect 2 "--source is required" "$HDNET" blend --target "$photo" -o x.png
+expect 2 "exclude each other" "$HDNET" blend --source $a/face0.png --target "$photo" --warp $a/face0.warp.txt --offset 1,2 -o x.png
+[ ! -e x.png ] || fail "a failed blend left an output"
+exit 0
