@@ -1,0 +1,277 @@
+/* cmd_detect.c: `hdnet detect`: the face detector and the face mesh on one photo, for debugging
+ * and for the pictures of docs/alignment.md: prints each face's score, box and keypoints, writes
+ * the landmarks as text, and draws the box, keypoints, landmark crop and landmarks on the photo
+ * (docs/img/align-detect.png and align-landmarks.png are made with it). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+#include "core/core.h"
+#include "align/face_detect.h"
+#include "align/face_landmarks.h"
+#include "mesh/mesh.h"
+
+HD_COMMAND("detect", cmd_detect, "find faces and their 468 landmarks in a photo; print, save or draw them")
+
+enum { DRAW_BOX = 1, DRAW_KEYPOINTS = 2, DRAW_ROI = 4, DRAW_LANDMARKS = 8, DRAW_MESH = 16 };
+
+static const char *keypoint_names[HD_FACE_KEYPOINTS] = {"right eye", "left eye", "nose tip", "mouth", "right ear", "left ear"};
+static const float keypoint_colors[HD_FACE_KEYPOINTS][3] = {
+    {1, 0.1f, 0.1f}, {0.2f, 0.4f, 1}, {1, 1, 0.1f}, {1, 0.2f, 1}, {1, 0.6f, 0.1f}, {0.1f, 1, 1}};
+
+/* The canvas: an RGB picture and the map from photo coordinates to it, q = (p - origin) * zoom. */
+typedef struct canvas {
+    hd_image img;
+    float origin[2], zoom;
+    int thick;
+    float alpha; /* opacity of what is drawn */
+} canvas;
+
+static void plot(canvas *cv, int x, int y, const float rgb[3])
+{
+    if (x < 0 || y < 0 || x >= cv->img.width || y >= cv->img.height) return;
+    size_t plane = (size_t)cv->img.width * cv->img.height;
+    for (int c = 0; c < 3; c++) {
+        float *p = &cv->img.data[c * plane + (size_t)y * cv->img.width + x];
+        *p = (1.0f - cv->alpha) * *p + cv->alpha * rgb[c];
+    }
+}
+
+/* A filled disc of radius r (canvas pixels) centred on photo point p. */
+static void dot(canvas *cv, const float p[2], float r, const float rgb[3])
+{
+    float qx = (p[0] - cv->origin[0]) * cv->zoom, qy = (p[1] - cv->origin[1]) * cv->zoom;
+    if (!isfinite(qx) || !isfinite(qy) || fabsf(qx) > 1e6f || fabsf(qy) > 1e6f) return;
+    for (int y = (int)floorf(qy - r); y <= (int)ceilf(qy + r); y++)
+        for (int x = (int)floorf(qx - r); x <= (int)ceilf(qx + r); x++) {
+            float dx = (float)x + 0.5f - qx, dy = (float)y + 0.5f - qy;
+            if (dx * dx + dy * dy <= r * r) plot(cv, x, y, rgb);
+        }
+}
+
+/* A line between photo points a and b, cv->thick canvas pixels wide. */
+static void line(canvas *cv, const float a[2], const float b[2], const float rgb[3])
+{
+    float ax = (a[0] - cv->origin[0]) * cv->zoom, ay = (a[1] - cv->origin[1]) * cv->zoom;
+    float bx = (b[0] - cv->origin[0]) * cv->zoom, by = (b[1] - cv->origin[1]) * cv->zoom;
+    float len = hypotf(bx - ax, by - ay);
+    if (!isfinite(len) || len > 1e5f) return;
+    int steps = (int)ceilf(len) + 1;
+    float r = 0.5f * (float)cv->thick;
+    for (int i = 0; i <= steps; i++) {
+        float t = (float)i / (float)steps, q[2];
+        /* back to photo coordinates for dot() */
+        q[0] = (ax + t * (bx - ax)) / cv->zoom + cv->origin[0];
+        q[1] = (ay + t * (by - ay)) / cv->zoom + cv->origin[1];
+        dot(cv, q, r, rgb);
+    }
+}
+
+static void draw_face(canvas *cv, const hd_face_box *f, const hd_face_roi *roi, const float (*lm)[3],
+                      const hd_mesh *mesh, int draw)
+{
+    static const float green[3] = {0.1f, 1, 0.2f}, cyan[3] = {0.2f, 0.9f, 1}, yellow[3] = {1, 0.95f, 0.2f};
+    static const float white[3] = {1, 1, 1};
+    if ((draw & DRAW_MESH) && lm && mesh) {
+        int thick = cv->thick;
+        cv->thick = 1;
+        cv->alpha = 0.45f;
+        for (int t = 0; t < mesh->nt; t++)
+            for (int e = 0; e < 3; e++) {
+                int a = mesh->tri[3 * t + e], b = mesh->tri[3 * t + (e + 1) % 3];
+                line(cv, lm[a], lm[b], white);
+            }
+        cv->thick = thick;
+        cv->alpha = 1.0f;
+    }
+    if (draw & DRAW_BOX) {
+        float c[4][2] = {{f->x0, f->y0}, {f->x1, f->y0}, {f->x1, f->y1}, {f->x0, f->y1}};
+        for (int k = 0; k < 4; k++) line(cv, c[k], c[(k + 1) % 4], green);
+    }
+    if ((draw & DRAW_ROI) && roi) {
+        float ux = cosf(roi->angle) * 0.5f * roi->size, uy = sinf(roi->angle) * 0.5f * roi->size;
+        float c[4][2] = {{roi->cx - ux + uy, roi->cy - uy - ux},
+                         {roi->cx + ux + uy, roi->cy + uy - ux},
+                         {roi->cx + ux - uy, roi->cy + uy + ux},
+                         {roi->cx - ux - uy, roi->cy - uy + ux}};
+        for (int k = 0; k < 4; k++) line(cv, c[k], c[(k + 1) % 4], cyan);
+    }
+    if ((draw & DRAW_LANDMARKS) && lm)
+        for (int i = 0; i < HD_FACE_MESH_POINTS; i++) dot(cv, lm[i], 0.6f * (float)cv->thick + 0.6f, yellow);
+    if (draw & DRAW_KEYPOINTS)
+        for (int k = 0; k < HD_FACE_KEYPOINTS; k++) dot(cv, f->keypoints[k], 1.5f * (float)cv->thick + 1.0f, keypoint_colors[k]);
+}
+
+static int parse_draw(const char *text, int *draw)
+{
+    *draw = 0;
+    const char *s = text;
+    while (*s) {
+        size_t n = strcspn(s, ",");
+        if (n == 3 && strncmp(s, "box", 3) == 0) *draw |= DRAW_BOX;
+        else if (n == 9 && strncmp(s, "keypoints", 9) == 0) *draw |= DRAW_KEYPOINTS;
+        else if (n == 3 && strncmp(s, "roi", 3) == 0) *draw |= DRAW_ROI;
+        else if (n == 9 && strncmp(s, "landmarks", 9) == 0) *draw |= DRAW_LANDMARKS;
+        else if (n == 4 && strncmp(s, "mesh", 4) == 0) *draw |= DRAW_MESH;
+        else return 0;
+        s += n;
+        if (*s == ',') s++;
+    }
+    return *draw != 0;
+}
+
+/* Writes every face's landmarks: a comment line per face, then 468 lines "x y z". */
+static hd_status write_landmarks(const char *path, const hd_face_box *faces, const float (*lm)[HD_FACE_MESH_POINTS][3],
+                                 const float *presence, int count)
+{
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st != HD_OK) return st;
+    fprintf(af.f, "# hdnet detect: %d face(s); per face 468 lines \"x y z\" (photo pixels, x right, y down; "
+                  "z smaller = closer)\n", count);
+    for (int i = 0; i < count; i++) {
+        fprintf(af.f, "# face %d score %.4f presence %.4f\n", i, (double)faces[i].score, (double)presence[i]);
+        for (int k = 0; k < HD_FACE_MESH_POINTS; k++)
+            fprintf(af.f, "%.3f %.3f %.3f\n", (double)lm[i][k][0], (double)lm[i][k][1], (double)lm[i][k][2]);
+    }
+    return hd_atomic_commit(&af);
+}
+
+int cmd_detect(int argc, char **argv)
+{
+    const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
+    float min_score = HD_FACE_MIN_SCORE;
+    int no_landmarks = 0, zoom_size = 0;
+    const hd_opt opts[] = {
+        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
+        {"landmarks", 0, HD_OPT_STRING, &landmarks_path, "L.txt",
+         "write the landmarks: per face a '# face' line and 468 lines 'x y z'"},
+        {"min-score", 0, HD_OPT_FLOAT, &min_score, "S", "detection threshold in (0, 1] (default 0.75)"},
+        {"no-landmarks", 0, HD_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
+        {"draw", 0, HD_OPT_STRING, &draw_text, "LIST",
+         "what -o shows, comma-separated from box, keypoints, roi (the crop the face mesh first sees), "
+         "landmarks, mesh (the canonical mesh's triangles on the landmarks) (default box,keypoints,landmarks)"},
+        {"zoom", 0, HD_OPT_INT, &zoom_size, "N",
+         "draw only the first face's landmark crop, enlarged to N x N pixels (default 0: the whole photo)"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "detect", "IMG [-o annotated.png] [--landmarks L.txt] [options]",
+        "Finds the faces in a photo with MediaPipe's short-range face detector (BlazeFace; faces that\n"
+        "fill a good part of the photo) and, for each, the 468 face-mesh landmarks (the vertex order of\n"
+        "models/canonical_face_model.obj). Prints one line per face (score, box) and its six keypoints.\n"
+        "Photo coordinates: pixels, x right, y down, pixel (i, j) centred at (i + 0.5, j + 0.5).\n"
+        "A photo without a face is not an error: it prints 'no face found'.",
+        opts, 1, 1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    const char *path = pos[0];
+    free(pos);
+    int draw;
+    if (!parse_draw(draw_text, &draw))
+        return hd_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
+    if (!(min_score > 0.0f && min_score <= 1.0f))
+        return hd_usage_error(&spec, "--min-score must be in (0, 1], got %g", (double)min_score);
+    if (zoom_size < 0 || zoom_size > 4096) return hd_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);
+    if (no_landmarks && landmarks_path) return hd_usage_error(&spec, "--landmarks needs the face mesh (drop --no-landmarks)");
+    if (zoom_size && !out) return hd_usage_error(&spec, "--zoom goes with -o");
+
+    hd_image photo = {0};
+    hd_face_detector *det = NULL;
+    hd_face_mesh *mesh = NULL;
+    hd_face_box *faces = NULL;
+    float (*lm)[HD_FACE_MESH_POINTS][3] = NULL;
+    float *presence = NULL;
+    hd_face_roi *rois = NULL;
+    canvas cv = {0};
+    hd_mesh canonical = {0};
+    int count = 0, rc = HD_EXIT_FAIL;
+    if (hd_image_read_as(path, 3, &photo) != HD_OK || hd_face_detector_load(NULL, &det) != HD_OK) goto done;
+    double t0 = hd_seconds();
+    if (hd_face_detector_run(det, &photo, min_score, &faces, &count) != HD_OK) goto done;
+    double t_detect = hd_seconds() - t0;
+    printf("%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
+    if (count == 0) {
+        printf("no face found (score threshold %.2f)\n", (double)min_score);
+        if (landmarks_path || zoom_size) {
+            hd_fail(HD_ERR_NOTFOUND, "%s: no face found: no landmarks to write or zoom to", path);
+            goto done;
+        }
+    }
+    if (!no_landmarks && count > 0) {
+        lm = hd_calloc((size_t)count, sizeof *lm);
+        presence = hd_calloc((size_t)count, sizeof *presence);
+        rois = hd_calloc((size_t)count, sizeof *rois);
+        if (!lm || !presence || !rois || hd_face_mesh_load(NULL, &mesh) != HD_OK) goto done;
+    }
+    for (int i = 0; i < count; i++) {
+        const hd_face_box *f = &faces[i];
+        printf("face %d: score %.3f box (%.1f, %.1f)-(%.1f, %.1f)\n", i, (double)f->score, (double)f->x0,
+               (double)f->y0, (double)f->x1, (double)f->y1);
+        for (int k = 0; k < HD_FACE_KEYPOINTS; k++)
+            printf("  %-9s (%.1f, %.1f)\n", keypoint_names[k], (double)f->keypoints[k][0], (double)f->keypoints[k][1]);
+        if (!mesh) continue;
+        t0 = hd_seconds();
+        if (hd_face_mesh_fit(mesh, &photo, f, 2, lm[i], &presence[i]) != HD_OK) goto done;
+        hd_face_roi_from_landmarks((const float(*)[3])lm[i], &rois[i]);
+        printf("  landmarks: presence %.3f, crop %.1f px at %.1f degrees (%.1f ms)\n", (double)presence[i],
+               (double)rois[i].size, (double)(rois[i].angle * 57.29578f), 1e3 * (hd_seconds() - t0));
+        if (presence[i] < 0.5f) printf("  (the face mesh doubts this is a face)\n");
+    }
+    if (landmarks_path && write_landmarks(landmarks_path, faces, (const float(*)[HD_FACE_MESH_POINTS][3])lm, presence,
+                                          count) != HD_OK)
+        goto done;
+    if (out) {
+        if (zoom_size > 0) {
+            /* The axis-aligned square around the first face's landmark crop, enlarged. */
+            const hd_face_roi *r = rois ? &rois[0] : NULL;
+            hd_face_roi from_box;
+            if (!r) {
+                hd_face_roi_from_box(&faces[0], &from_box);
+                r = &from_box;
+            }
+            float side = r->size * (fabsf(cosf(r->angle)) + fabsf(sinf(r->angle)));
+            cv.zoom = (float)zoom_size / side;
+            cv.origin[0] = r->cx - 0.5f * side;
+            cv.origin[1] = r->cy - 0.5f * side;
+            if (hd_image_alloc(&cv.img, zoom_size, zoom_size, 3) != HD_OK) goto done;
+            float *rgb = hd_malloc((size_t)zoom_size * zoom_size * 3 * sizeof *rgb);
+            if (!rgb) goto done;
+            float ax[2] = {1.0f / cv.zoom, 0.0f}, ay[2] = {0.0f, 1.0f / cv.zoom};
+            hd_face_sample(&photo, cv.origin, ax, ay, zoom_size, zoom_size, 0.0f, 1.0f, HD_BORDER_ZERO, rgb);
+            size_t plane = (size_t)zoom_size * zoom_size;
+            for (size_t p = 0; p < plane; p++)
+                for (int c = 0; c < 3; c++) cv.img.data[c * plane + p] = rgb[3 * p + c];
+            free(rgb);
+        } else {
+            cv.zoom = 1.0f;
+            if (hd_image_alloc(&cv.img, photo.width, photo.height, 3) != HD_OK) goto done;
+            memcpy(cv.img.data, photo.data, (size_t)photo.width * photo.height * 3 * sizeof(float));
+        }
+        if ((draw & DRAW_MESH) && lm && hd_mesh_load_canonical(&canonical) != HD_OK) goto done;
+        cv.alpha = 1.0f;
+        int side = cv.img.width > cv.img.height ? cv.img.width : cv.img.height;
+        cv.thick = side / 400 > 1 ? side / 400 : 1;
+        for (int i = count - 1; i >= 0; i--) {
+            hd_face_roi box_roi;
+            hd_face_roi_from_box(&faces[i], &box_roi);
+            draw_face(&cv, &faces[i], &box_roi, lm ? (const float(*)[3])lm[i] : NULL, &canonical, draw);
+        }
+        if (hd_image_write_png(out, &cv.img, 8) != HD_OK) goto done;
+        printf("wrote %s\n", out);
+    }
+    rc = HD_EXIT_OK;
+done:
+    if (rc != HD_EXIT_OK) hd_report("detect");
+    hd_image_free(&cv.img);
+    hd_mesh_free(&canonical);
+    hd_image_free(&photo);
+    hd_face_detector_free(det);
+    hd_face_mesh_free(mesh);
+    free(faces);
+    free(lm);
+    free(presence);
+    free(rois);
+    return rc;
+}
