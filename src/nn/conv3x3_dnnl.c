@@ -1,21 +1,299 @@
-/* conv3x3_dnnl.c: the oneDNN path of the 3x3 convolution (not yet built: plans fall back to the
- * portable path). */
+/* conv3x3_dnnl.c: the oneDNN path of the 3x3 convolution. Per plan, once: forward (bias and the
+ * leaky ReLU fused as an eltwise post-op), backward-data and backward-weights primitives with the
+ * memory formats oneDNN picks ("any": its blocked channel layouts), the reorders between those
+ * and our NCHW / OIHW buffers, plan-owned buffers in the blocked formats, and one user-managed
+ * scratchpad. Nothing is allocated in forward or backward.
+ *
+ * Accumulation: oneDNN's backward primitives overwrite, so they write into plan-owned buffers
+ * which are then reordered into the caller's dinp / dw with a sum post-op (dst = dst + src); the
+ * bias gradient (OC floats) is added by hand. The engine and stream are one per process.
+ */
+#include <string.h>
 #include "nn/conv3x3_impl.h"
 
 #ifdef HD_HAVE_DNNL
+#include <dnnl.h>
+
+/* A tensor seen two ways: the caller's plain buffer (user) and the primitive's format (prim,
+ * with a plan-owned buffer when the formats differ), and the reorder between them. */
+typedef struct view {
+    dnnl_memory_t user, prim; /* prim == user when the formats agree */
+    dnnl_primitive_t reorder; /* user -> prim (inputs) or prim -> user (outputs), or NULL */
+} view;
+
+typedef struct dn {
+    dnnl_primitive_t fwd, bwd_data, bwd_weights;
+    view src, w, dst;                 /* forward */
+    view bd_ddst, bd_w, bd_dsrc;      /* backward data: dsrc reorders with a sum into dinp */
+    view bw_src, bw_ddst, bw_dw;      /* backward weights: dw reorders with a sum into dw */
+    dnnl_memory_t bias, dbias, scratch;
+    float *zero_bias, *dbias_buf;
+    const float *last_src; /* the input of the last forward, held by src.prim */
+    int share_src;         /* backward weights reads src in the forward's (reordered) format */
+} dn;
+
+static dnnl_engine_t engine;
+static dnnl_stream_t stream;
+
+#define DN(call)                                                                   \
+    do {                                                                           \
+        dnnl_status_t s_ = (call);                                                 \
+        if (s_ != dnnl_success) {                                                  \
+            hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: %s failed (status %d)", #call, (int)s_); \
+            goto fail;                                                             \
+        }                                                                          \
+    } while (0)
+
+static hd_status dn_init(void)
+{
+    if (engine) return HD_OK;
+    if (dnnl_engine_create(&engine, dnnl_cpu, 0) != dnnl_success)
+        return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no CPU engine");
+    if (dnnl_stream_create(&stream, engine, dnnl_stream_default_flags) != dnnl_success) {
+        dnnl_engine_destroy(engine);
+        engine = NULL;
+        return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no stream");
+    }
+    return HD_OK;
+}
+
+static dnnl_status_t attr_user_scratch(dnnl_primitive_attr_t *attr)
+{
+    dnnl_status_t s = dnnl_primitive_attr_create(attr);
+    if (s == dnnl_success) s = dnnl_primitive_attr_set_scratchpad_mode(*attr, dnnl_scratchpad_mode_user);
+    return s;
+}
+
+static size_t scratch_size(const_dnnl_primitive_desc_t pd)
+{
+    const dnnl_memory_desc_t *md = dnnl_primitive_desc_query_md(pd, dnnl_query_scratchpad_md, 0);
+    return md ? dnnl_memory_desc_get_size(md) : 0;
+}
+
+/* Builds view v for a user format `user_md` and the primitive's `prim_md`. to_prim: the reorder
+ * goes user -> prim (an input); otherwise prim -> user, with a sum when `accumulate`. Grows
+ * *scratch to the reorder's scratchpad. */
+static dnnl_status_t make_view(view *v, const dnnl_memory_desc_t *user_md, const dnnl_memory_desc_t *prim_md,
+                               int to_prim, int accumulate, size_t *scratch)
+{
+    dnnl_status_t s = dnnl_memory_create(&v->user, user_md, engine, DNNL_MEMORY_NONE);
+    if (s != dnnl_success) return s;
+    if (dnnl_memory_desc_equal(user_md, prim_md) && !accumulate) {
+        v->prim = v->user;
+        return dnnl_success;
+    }
+    s = dnnl_memory_create(&v->prim, prim_md, engine, DNNL_MEMORY_ALLOCATE);
+    if (s != dnnl_success) return s;
+    dnnl_primitive_attr_t attr = NULL;
+    dnnl_post_ops_t po = NULL;
+    dnnl_primitive_desc_t pd = NULL;
+    s = attr_user_scratch(&attr);
+    if (s == dnnl_success && accumulate) {
+        s = dnnl_post_ops_create(&po);
+        if (s == dnnl_success) s = dnnl_post_ops_append_sum(po, 1.0f);
+        if (s == dnnl_success) s = dnnl_primitive_attr_set_post_ops(attr, po);
+    }
+    if (s == dnnl_success)
+        s = to_prim ? dnnl_reorder_primitive_desc_create(&pd, user_md, engine, prim_md, engine, attr)
+                    : dnnl_reorder_primitive_desc_create(&pd, prim_md, engine, user_md, engine, attr);
+    if (s == dnnl_success) {
+        size_t n = scratch_size(pd);
+        if (n > *scratch) *scratch = n;
+        s = dnnl_primitive_create(&v->reorder, pd);
+    }
+    if (pd) dnnl_primitive_desc_destroy(pd);
+    if (po) dnnl_post_ops_destroy(po);
+    if (attr) dnnl_primitive_attr_destroy(attr);
+    return s;
+}
+
+static void free_view(view *v)
+{
+    if (v->reorder) dnnl_primitive_destroy(v->reorder);
+    if (v->prim && v->prim != v->user) dnnl_memory_destroy(v->prim);
+    if (v->user) dnnl_memory_destroy(v->user);
+    memset(v, 0, sizeof *v);
+}
+
+static const dnnl_memory_desc_t *qmd(const_dnnl_primitive_desc_t pd, dnnl_query_t what)
+{
+    return dnnl_primitive_desc_query_md(pd, what, 0);
+}
+
 hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
 {
-    (void)p;
-    return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN path not available");
+    hd_status st = dn_init();
+    if (st != HD_OK) return st;
+    dn *d = hd_calloc(1, sizeof *d);
+    if (!d) return HD_ERR_NOMEM;
+    p->dnnl = d;
+    dnnl_primitive_desc_t fpd = NULL, dpd = NULL, wpd = NULL;
+    dnnl_primitive_attr_t fattr = NULL, dattr = NULL, wattr = NULL;
+    dnnl_post_ops_t po = NULL;
+    size_t scratch = 0;
+
+    dnnl_dims_t sdims = {p->B, p->C, p->H, p->W}, wdims = {p->OC, p->C, 3, 3}, bdims = {p->OC},
+                ddims = {p->B, p->OC, p->Ho, p->Wo};
+    dnnl_dims_t strides = {p->stride, p->stride}, pad_l = {1, 1};
+    /* right padding so that Ho = (H + 1 + pad_r - 3) / stride + 1 exactly */
+    dnnl_dims_t pad_r = {(p->Ho - 1) * p->stride + 3 - p->H - 1, (p->Wo - 1) * p->stride + 3 - p->W - 1};
+    dnnl_memory_desc_t s_any, w_any, d_any, b_md, s_user, w_user, d_user;
+    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&w_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
+    DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, dnnl_nchw));
+    DN(dnnl_memory_desc_init_by_tag(&w_user, 4, wdims, dnnl_f32, dnnl_oihw));
+    DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, dnnl_nchw));
+
+    /* forward: dst = act(conv(src, w) + b) */
+    dnnl_convolution_desc_t fdesc, ddesc, wdesc;
+    DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any,
+                                          &w_any, &b_md, &d_any, strides, pad_l, pad_r));
+    DN(attr_user_scratch(&fattr));
+    if (p->act == HD_ACT_LRELU) {
+        DN(dnnl_post_ops_create(&po));
+        DN(dnnl_post_ops_append_eltwise(po, 1.0f, dnnl_eltwise_relu, p->slope, 0.0f)); /* x > 0 ? x : alpha x */
+        DN(dnnl_primitive_attr_set_post_ops(fattr, po));
+    }
+    DN(dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL));
+    DN(dnnl_primitive_create(&d->fwd, fpd));
+    if (scratch_size(fpd) > scratch) scratch = scratch_size(fpd);
+    DN(make_view(&d->src, &s_user, qmd(fpd, dnnl_query_src_md), 1, 0, &scratch));
+    DN(make_view(&d->w, &w_user, qmd(fpd, dnnl_query_weights_md), 1, 0, &scratch));
+    DN(make_view(&d->dst, &d_user, qmd(fpd, dnnl_query_dst_md), 0, 0, &scratch));
+
+    /* backward data: dsrc = conv^T(ddst, w) */
+    DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_any, &d_any,
+                                                strides, pad_l, pad_r));
+    DN(attr_user_scratch(&dattr));
+    DN(dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd));
+    DN(dnnl_primitive_create(&d->bwd_data, dpd));
+    if (scratch_size(dpd) > scratch) scratch = scratch_size(dpd);
+    DN(make_view(&d->bd_ddst, &d_user, qmd(dpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
+    DN(make_view(&d->bd_w, &w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
+    DN(make_view(&d->bd_dsrc, &s_user, qmd(dpd, dnnl_query_diff_src_md), 0, 1, &scratch));
+
+    /* backward weights: dw = ddst x src, db = sum ddst */
+    DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_any, &w_any, &b_md,
+                                                   &d_any, strides, pad_l, pad_r));
+    DN(attr_user_scratch(&wattr));
+    DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd));
+    DN(dnnl_primitive_create(&d->bwd_weights, wpd));
+    if (scratch_size(wpd) > scratch) scratch = scratch_size(wpd);
+    DN(make_view(&d->bw_src, &s_user, qmd(wpd, dnnl_query_src_md), 1, 0, &scratch));
+    DN(make_view(&d->bw_ddst, &d_user, qmd(wpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
+    DN(make_view(&d->bw_dw, &w_user, qmd(wpd, dnnl_query_diff_weights_md), 0, 1, &scratch));
+    d->share_src = d->src.reorder && dnnl_memory_desc_equal(qmd(fpd, dnnl_query_src_md), qmd(wpd, dnnl_query_src_md));
+
+    d->zero_bias = hd_calloc((size_t)p->OC, sizeof(float));
+    d->dbias_buf = hd_calloc((size_t)p->OC, sizeof(float));
+    if (!d->zero_bias || !d->dbias_buf) goto fail;
+    DN(dnnl_memory_create(&d->bias, &b_md, engine, DNNL_MEMORY_NONE));
+    DN(dnnl_memory_create(&d->dbias, &b_md, engine, d->dbias_buf));
+    dnnl_memory_desc_t sp_md;
+    dnnl_dims_t spdims = {(dnnl_dim_t)(scratch ? scratch : 1)};
+    DN(dnnl_memory_desc_init_by_tag(&sp_md, 1, spdims, dnnl_u8, dnnl_x));
+    DN(dnnl_memory_create(&d->scratch, &sp_md, engine, DNNL_MEMORY_ALLOCATE));
+
+    dnnl_primitive_desc_destroy(fpd);
+    dnnl_primitive_desc_destroy(dpd);
+    dnnl_primitive_desc_destroy(wpd);
+    dnnl_primitive_attr_destroy(fattr);
+    dnnl_primitive_attr_destroy(dattr);
+    dnnl_primitive_attr_destroy(wattr);
+    if (po) dnnl_post_ops_destroy(po);
+    return HD_OK;
+fail:
+    if (fpd) dnnl_primitive_desc_destroy(fpd);
+    if (dpd) dnnl_primitive_desc_destroy(dpd);
+    if (wpd) dnnl_primitive_desc_destroy(wpd);
+    if (fattr) dnnl_primitive_attr_destroy(fattr);
+    if (dattr) dnnl_primitive_attr_destroy(dattr);
+    if (wattr) dnnl_primitive_attr_destroy(wattr);
+    if (po) dnnl_post_ops_destroy(po);
+    hd_conv3x3_dnnl_free(p);
+    return HD_ERR_ARG;
 }
-void hd_conv3x3_dnnl_free(hd_conv3x3 *p) { (void)p; }
+
+void hd_conv3x3_dnnl_free(hd_conv3x3 *p)
+{
+    dn *d = p->dnnl;
+    if (!d) return;
+    if (d->fwd) dnnl_primitive_destroy(d->fwd);
+    if (d->bwd_data) dnnl_primitive_destroy(d->bwd_data);
+    if (d->bwd_weights) dnnl_primitive_destroy(d->bwd_weights);
+    view *views[] = {&d->src, &d->w, &d->dst, &d->bd_ddst, &d->bd_w, &d->bd_dsrc, &d->bw_src, &d->bw_ddst, &d->bw_dw};
+    for (size_t i = 0; i < sizeof views / sizeof views[0]; i++) free_view(views[i]);
+    if (d->bias) dnnl_memory_destroy(d->bias);
+    if (d->dbias) dnnl_memory_destroy(d->dbias);
+    if (d->scratch) dnnl_memory_destroy(d->scratch);
+    free(d->zero_bias);
+    free(d->dbias_buf);
+    free(d);
+    p->dnnl = NULL;
+}
+
+/* Runs a reorder from `from` to `to`. */
+static void run_reorder(dn *d, dnnl_primitive_t r, dnnl_memory_t from, dnnl_memory_t to)
+{
+    dnnl_exec_arg_t args[3] = {{DNNL_ARG_FROM, from}, {DNNL_ARG_TO, to}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
+    dnnl_primitive_execute(r, stream, 3, args);
+}
+
+/* Points an input view at ptr and brings it into the primitive's format. */
+static dnnl_memory_t view_in(dn *d, view *v, const float *ptr)
+{
+    dnnl_memory_set_data_handle(v->user, (void *)ptr);
+    if (v->reorder) run_reorder(d, v->reorder, v->user, v->prim);
+    return v->prim;
+}
+
 void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b)
 {
-    (void)p, (void)out, (void)inp, (void)w, (void)b;
+    dn *d = p->dnnl;
+    dnnl_memory_t src = view_in(d, &d->src, inp), wt = view_in(d, &d->w, w);
+    dnnl_memory_set_data_handle(d->bias, (void *)(b ? b : d->zero_bias));
+    dnnl_memory_set_data_handle(d->dst.user, out);
+    dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_WEIGHTS, wt}, {DNNL_ARG_BIAS, d->bias},
+                               {DNNL_ARG_DST, d->dst.prim}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
+    dnnl_primitive_execute(d->fwd, stream, 5, args);
+    if (d->dst.reorder) run_reorder(d, d->dst.reorder, d->dst.prim, d->dst.user);
+    dnnl_stream_wait(stream);
+    d->last_src = inp;
 }
+
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
                               const float *inp, const float *w)
 {
-    (void)p, (void)dinp, (void)dw, (void)db, (void)dout, (void)inp, (void)w;
+    dn *d = p->dnnl;
+    if (dinp) {
+        /* dsrc = conv^T(ddst, w); dinp += dsrc (a reorder with a sum post-op) */
+        dnnl_memory_t ddst = view_in(d, &d->bd_ddst, dout), wt = view_in(d, &d->bd_w, w);
+        dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, ddst}, {DNNL_ARG_WEIGHTS, wt},
+                                   {DNNL_ARG_DIFF_SRC, d->bd_dsrc.prim}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
+        dnnl_primitive_execute(d->bwd_data, stream, 4, args);
+        dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
+        run_reorder(d, d->bd_dsrc.reorder, d->bd_dsrc.prim, d->bd_dsrc.user);
+    }
+    if (dw || db) {
+        /* dw = sum ddst x src, db = sum ddst; both accumulate */
+        dnnl_memory_t src;
+        if (d->share_src && d->last_src == inp) src = d->src.prim; /* the forward's copy */
+        else src = view_in(d, &d->bw_src, inp);
+        dnnl_memory_t ddst = view_in(d, &d->bw_ddst, dout);
+        dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_DIFF_DST, ddst},
+                                   {DNNL_ARG_DIFF_WEIGHTS, d->bw_dw.prim}, {DNNL_ARG_DIFF_BIAS, d->dbias},
+                                   {DNNL_ARG_SCRATCHPAD, d->scratch}};
+        dnnl_primitive_execute(d->bwd_weights, stream, 5, args);
+        if (dw) {
+            dnnl_memory_set_data_handle(d->bw_dw.user, dw);
+            run_reorder(d, d->bw_dw.reorder, d->bw_dw.prim, d->bw_dw.user);
+        }
+        dnnl_stream_wait(stream);
+        if (db)
+            for (int o = 0; o < p->OC; o++) db[o] += d->dbias_buf[o];
+    }
+    dnnl_stream_wait(stream);
 }
 #endif

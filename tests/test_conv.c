@@ -1,0 +1,199 @@
+/* test_conv.c: every 3x3 convolution path (auto = oneDNN when built with it, portable = im2col +
+ * sgemm) against the naive direct loops, for the forward, the input gradient, the weight and bias
+ * gradients, on odd shapes with stride 1 and 2; the accumulation contract (two backward calls add
+ * twice); bit-reproducibility of two identical runs; Adam against a hand-computed two-step case;
+ * the initialisation's bounds and determinism. */
+#include <stdlib.h>
+#include <string.h>
+#include "test.h"
+#include "nn/nn.h"
+
+static hd_rng rng;
+
+static float *randn(size_t n, float lo, float hi)
+{
+    float *x = malloc((n ? n : 1) * sizeof(float));
+    for (size_t i = 0; i < n; i++) x[i] = hd_rng_range(&rng, lo, hi);
+    return x;
+}
+static float *dup(const float *x, size_t n)
+{
+    float *y = malloc((n ? n : 1) * sizeof(float));
+    memcpy(y, x, n * sizeof(float));
+    return y;
+}
+
+/* max |a - b| / max(max |b|, 1e-6); prints the first worst index */
+static double rel_diff(const float *a, const float *b, size_t n, size_t *at)
+{
+    double m = 1e-6, d = 0.0;
+    *at = 0;
+    for (size_t i = 0; i < n; i++) m = fmax(m, fabs(b[i]));
+    for (size_t i = 0; i < n; i++)
+        if (fabs(a[i] - b[i]) > d) d = fabs(a[i] - b[i]), *at = i;
+    return d / m;
+}
+
+typedef struct shape {
+    int B, C, H, W, OC, stride;
+    hd_act act;
+} shape;
+
+/* Runs forward and backward of one path; outputs: out, dinp, dw, db (starting from g0 values). */
+typedef struct result {
+    float *out, *dinp, *dw, *db;
+} result;
+
+static int run_path(const shape *s, hd_conv_path path, const float *x, const float *w, const float *b,
+                    const float *dout, const float *g0x, const float *g0w, const float *g0b, int calls, result *r)
+{
+    hd_conv3x3 *p;
+    if (hd_conv3x3_plan(&p, s->B, s->C, s->H, s->W, s->OC, s->stride, s->act, 0.1f, path) != HD_OK) {
+        fprintf(stderr, "plan: %s\n", hd_error());
+        return 0;
+    }
+    size_t nx = (size_t)s->B * s->C * s->H * s->W, nw = (size_t)s->OC * s->C * 9;
+    size_t no = (size_t)s->B * s->OC * hd_conv3x3_out_h(p) * hd_conv3x3_out_w(p);
+    r->out = malloc(no * sizeof(float));
+    r->dinp = dup(g0x, nx), r->dw = dup(g0w, nw), r->db = dup(g0b, (size_t)s->OC);
+    hd_conv3x3_forward(p, r->out, x, w, b);
+    for (int k = 0; k < calls; k++) {
+        float *g = dup(dout, no);
+        hd_conv3x3_backward(p, r->dinp, r->dw, r->db, g, r->out, x, w);
+        free(g);
+    }
+    hd_conv3x3_free(p);
+    return 1;
+}
+
+static void free_result(result *r) { free(r->out), free(r->dinp), free(r->dw), free(r->db); }
+
+static void test_paths(void)
+{
+    static const shape shapes[] = {
+        {2, 3, 7, 9, 5, 1, HD_ACT_NONE},    {2, 3, 7, 9, 5, 1, HD_ACT_LRELU}, {2, 5, 9, 12, 3, 2, HD_ACT_LRELU},
+        {3, 1, 12, 7, 3, 2, HD_ACT_NONE},   {2, 5, 12, 12, 1, 1, HD_ACT_LRELU},
+        {2, 16, 9, 7, 32, 1, HD_ACT_LRELU}, {1, 32, 12, 9, 48, 2, HD_ACT_NONE}, {1, 48, 16, 16, 48, 1, HD_ACT_LRELU},
+    };
+    static const char *names[] = {"auto", "portable", "naive"};
+    for (size_t k = 0; k < sizeof shapes / sizeof shapes[0]; k++) {
+        const shape *s = &shapes[k];
+        int Ho = (s->H - 1) / s->stride + 1, Wo = (s->W - 1) / s->stride + 1;
+        size_t nx = (size_t)s->B * s->C * s->H * s->W, nw = (size_t)s->OC * s->C * 9, no = (size_t)s->B * s->OC * Ho * Wo;
+        float *x = randn(nx, -1, 1), *w = randn(nw, -0.3f, 0.3f), *b = randn(s->OC, -0.3f, 0.3f);
+        float *dout = randn(no, -1, 1), *g0x = randn(nx, -1, 1), *g0w = randn(nw, -1, 1), *g0b = randn(s->OC, -1, 1);
+        result ref;
+        if (!run_path(s, HD_CONV_NAIVE, x, w, b, dout, g0x, g0w, g0b, 1, &ref)) {
+            test_failures++;
+            continue;
+        }
+        for (int path = HD_CONV_AUTO; path <= HD_CONV_PORTABLE; path++) {
+            result r, r2, twice;
+            if (!run_path(s, (hd_conv_path)path, x, w, b, dout, g0x, g0w, g0b, 1, &r)) {
+                test_failures++;
+                continue;
+            }
+            size_t at[4];
+            double e[4] = {rel_diff(r.out, ref.out, no, &at[0]), rel_diff(r.dinp, ref.dinp, nx, &at[1]),
+                           rel_diff(r.dw, ref.dw, nw, &at[2]), rel_diff(r.db, ref.db, (size_t)s->OC, &at[3])};
+            double worst = fmax(fmax(e[0], e[1]), fmax(e[2], e[3]));
+            printf("conv %-8s %dx%dx%dx%d->%d s%d%s: max relative difference to naive %.2e (out %.1e, dinp %.1e, dw %.1e, db %.1e)\n",
+                   names[path], s->B, s->C, s->H, s->W, s->OC, s->stride, s->act ? " lrelu" : "", worst, e[0], e[1], e[2], e[3]);
+            static const char *what[] = {"out", "dinp", "dw", "db"};
+            for (int q = 0; q < 4; q++)
+                if (e[q] > 1e-5) {
+                    fprintf(stderr, "  %s: %s differs at %zu\n", names[path], what[q], at[q]);
+                    test_failures++;
+                }
+            /* bit-reproducibility: the same run again gives the same bytes */
+            run_path(s, (hd_conv_path)path, x, w, b, dout, g0x, g0w, g0b, 1, &r2);
+            CHECK(memcmp(r.out, r2.out, no * sizeof(float)) == 0);
+            CHECK(memcmp(r.dinp, r2.dinp, nx * sizeof(float)) == 0);
+            CHECK(memcmp(r.dw, r2.dw, nw * sizeof(float)) == 0);
+            CHECK(memcmp(r.db, r2.db, (size_t)s->OC * sizeof(float)) == 0);
+            /* accumulation: two backward calls add the gradient twice onto g0 */
+            run_path(s, (hd_conv_path)path, x, w, b, dout, g0x, g0w, g0b, 2, &twice);
+            double acc = 0.0, scale = 1e-6;
+            for (size_t i = 0; i < nx; i++) {
+                acc = fmax(acc, fabs((twice.dinp[i] - g0x[i]) - 2 * (r.dinp[i] - g0x[i])));
+                scale = fmax(scale, fabs(r.dinp[i] - g0x[i]));
+            }
+            for (size_t i = 0; i < nw; i++) {
+                acc = fmax(acc, fabs((twice.dw[i] - g0w[i]) - 2 * (r.dw[i] - g0w[i])));
+                scale = fmax(scale, fabs(r.dw[i] - g0w[i]));
+            }
+            for (int i = 0; i < s->OC; i++) acc = fmax(acc, fabs((twice.db[i] - g0b[i]) - 2 * (r.db[i] - g0b[i])));
+            if (!(acc / scale < 1e-5)) {
+                fprintf(stderr, "  %s: backward twice is not twice the gradient (%.3g)\n", names[path], acc / scale);
+                test_failures++;
+            }
+            /* NULL gradients are skipped */
+            hd_conv3x3 *p;
+            if (hd_conv3x3_plan(&p, s->B, s->C, s->H, s->W, s->OC, s->stride, s->act, 0.1f, (hd_conv_path)path) == HD_OK) {
+                float *g = dup(dout, no), *dw = dup(g0w, nw);
+                hd_conv3x3_forward(p, r2.out, x, w, b);
+                hd_conv3x3_backward(p, NULL, dw, NULL, g, r2.out, x, w);
+                CHECK(rel_diff(dw, r.dw, nw, &at[0]) < 1e-5);
+                free(g), free(dw);
+                hd_conv3x3_free(p);
+            }
+            free_result(&r), free_result(&r2), free_result(&twice);
+        }
+        free_result(&ref);
+        free(x), free(w), free(b), free(dout), free(g0x), free(g0w), free(g0b);
+    }
+    hd_conv3x3 *p = NULL;
+    CHECK(hd_conv3x3_plan(&p, 1, 1, 5, 5, 1, 3, HD_ACT_NONE, 0.1f, HD_CONV_AUTO) == HD_ERR_ARG && !p);
+    CHECK(hd_conv3x3_plan(&p, 0, 1, 5, 5, 1, 1, HD_ACT_NONE, 0.1f, HD_CONV_AUTO) == HD_ERR_ARG && !p);
+}
+
+static void test_adam(void)
+{
+    /* p = 1, g = 0.5 then -0.25, lr 0.1, (0.9, 0.999, 1e-8), by hand:
+     * t = 1: m = 0.05, v = 2.5e-4, m^ = 0.5, v^ = 0.25, p = 1 - 0.1 * 0.5 / (0.5 + 1e-8) = 0.900000002
+     * t = 2: m = 0.02, v = 3.1225e-4, m^ = 0.02 / 0.19, v^ = 3.1225e-4 / 1.999e-3, p = 0.8733662987 */
+    float p[2] = {1.0f, -2.0f}, m[2] = {0}, v[2] = {0};
+    float g1[2] = {0.5f, 0.0f}, g2[2] = {-0.25f, 0.0f};
+    hd_adam_step(p, g1, m, v, 2, 0.1f, 0.9f, 0.999f, 1e-8f, 1);
+    CHECK_NEAR(p[0], 0.900000002, 1e-6);
+    CHECK_NEAR(m[0], 0.05, 1e-7);
+    CHECK_NEAR(v[0], 2.5e-4, 1e-8); /* 1 - 0.999 is inexact in float */
+    hd_adam_step(p, g2, m, v, 2, 0.1f, 0.9f, 0.999f, 1e-8f, 2);
+    CHECK_NEAR(p[0], 0.8733662987, 2e-6);
+    CHECK_NEAR(m[0], 0.02, 1e-7);
+    CHECK_NEAR(v[0], 3.1225e-4, 1e-8);
+    CHECK(p[1] == -2.0f); /* zero gradient, zero moments: no step */
+}
+
+static void test_init(void)
+{
+    enum { NW = 48 * 32 * 9, NB = 48 };
+    static float w1[NW], b1[NB], w2[NW], b2[NB];
+    hd_rng a, b;
+    hd_rng_seed(&a, 7, 3);
+    hd_rng_seed(&b, 7, 3);
+    hd_init_uniform_fan_in(w1, NW, b1, NB, 32 * 9, &a);
+    hd_init_uniform_fan_in(w2, NW, b2, NB, 32 * 9, &b);
+    CHECK(memcmp(w1, w2, sizeof w1) == 0 && memcmp(b1, b2, sizeof b1) == 0);
+    float bound = 1.0f / sqrtf(32 * 9), lo = 1, hi = -1;
+    double mean = 0.0;
+    for (int i = 0; i < NW; i++) {
+        CHECK(w1[i] >= -bound && w1[i] <= bound);
+        lo = fminf(lo, w1[i]), hi = fmaxf(hi, w1[i]);
+        mean += w1[i];
+    }
+    for (int i = 0; i < NB; i++) CHECK(b1[i] >= -bound && b1[i] <= bound);
+    CHECK(lo < -0.99f * bound && hi > 0.99f * bound); /* the whole range is used */
+    CHECK_NEAR(mean / NW, 0.0, 0.02 * bound);
+    hd_init_uniform_fan_in(w2, NW, NULL, 0, 32 * 9, &b); /* the next draw differs */
+    CHECK(memcmp(w1, w2, sizeof w1) != 0);
+}
+
+int main(void)
+{
+    hd_rng_seed(&rng, 99, 2);
+    test_paths();
+    test_adam();
+    test_init();
+    return test_summary("test_conv");
+}
