@@ -7,12 +7,15 @@
 #include "core/core.h"
 #include "io/image_io.h"
 
+/* Files hold 1-4 channels; in memory an image may carry more (stacked maps). */
+#define HD_IMAGE_MAX_CHANNELS 1024
+
 hd_status hd_image_alloc(hd_image *img, int width, int height, int channels)
 {
     if (width <= 0 || height <= 0 || channels <= 0 || width > HD_IMAGE_MAX_SIDE ||
-        height > HD_IMAGE_MAX_SIDE || channels > 4)
+        height > HD_IMAGE_MAX_SIDE || channels > HD_IMAGE_MAX_CHANNELS)
         return hd_fail(HD_ERR_RANGE, "image size %dx%d with %d channels is out of range (sides 1..%d, "
-                       "channels 1..4)", width, height, channels, HD_IMAGE_MAX_SIDE);
+                       "channels 1..%d)", width, height, channels, HD_IMAGE_MAX_SIDE, HD_IMAGE_MAX_CHANNELS);
     size_t n;
     if (!hd_mul3_size((size_t)width, (size_t)height, (size_t)channels, &n) ||
         !hd_mul_size(n, sizeof(float), &n))
