@@ -317,7 +317,7 @@ typedef struct hd_synth_options {
 } hd_synth_options;
 /* Called now and then with the number of images written (may be NULL). */
 typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);
-/* Writes a whole set: out/subject_XXXX/YYYY.* for every subject and image, plus out/preview.png
+/* Writes a whole set: out/subject_XXXX/YYYY.* for every subject and image, plus out/preview.sheet.png
  * (a sheet of the first subjects). Parallel over images with OpenMP (hd_set_threads). */
 hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
                              hd_synth_progress_fn progress, void *ctx);

@@ -177,7 +177,7 @@ static void test_write_set(void)
                     test_failures++;
                 }
             }
-    CHECK(files_equal("set1/preview.png", "set2/preview.png"));
+    CHECK(files_equal("set1/preview.sheet.png", "set2/preview.sheet.png"));
     hd_image img = {0}, alb = {0}, sh = {0}, shp = {0}, mask = {0};
     float light[HD_SH_COEFFS];
     CHECK(hd_image_read("set1/subject_0001/0002.png", &img) == HD_OK);

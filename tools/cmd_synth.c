@@ -32,7 +32,7 @@ int cmd_synth(int argc, char **argv)
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
         "YYYY.mask.png, YYYY.normal.png (coarse normals: the undeformed canonical mesh), and the\n"
         "ground truth YYYY.albedo.png, YYYY.normal_gt.png, YYYY.shading.png (16 bit, shading/2),\n"
-        "YYYY.shading.pfm (exact) and YYYY.light.txt; plus OUT/preview.png, a sheet of the first\n"
+        "YYYY.shading.pfm (exact) and YYYY.light.txt; plus OUT/preview.sheet.png, a sheet of the first\n"
         "subjects (albedo, normals, shading, images). A subject keeps its shape and albedo across\n"
         "its images; light (and pose) change per image.",
         opts, 1, 1};

@@ -1,5 +1,6 @@
 /* write_set.c: a whole synthetic set on disk (SPEC section 5): OUT/subject_XXXX/YYYY.* for every
- * subject and image, and OUT/preview.png, a sheet of the first subjects.
+ * subject and image, and OUT/preview.sheet.png, a sheet of the first subjects (named with
+ * two dots, so that dataset scanning ignores it like the other derived files).
  *
  * Work goes in blocks of subjects: the block's identities are made in parallel (one per
  * subject), then its images are rendered and written in parallel (one per image). Each image
@@ -86,7 +87,7 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
         }
         hd_synth_subject_free(sub);
     }
-    char *path = st == HD_OK ? hd_path_join(out, "preview.png") : NULL;
+    char *path = st == HD_OK ? hd_path_join(out, "preview.sheet.png") : NULL;
     if (st == HD_OK && !path) st = HD_ERR_NOMEM;
     if (st == HD_OK) st = hd_image_write_png(path, &sheet, 8);
     free(path);

@@ -1,0 +1,52 @@
+#!/bin/sh
+# synth_cli.sh: `hdnet synth` and `hdnet eval` from the command line: a tiny set has every SPEC
+# section 5 file and a preview; the same seed gives the same files; its ground truth, laid out as
+# `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
+# the baselines under it; bad options give the documented exit codes.
+set -u
+fail() { echo "synth_cli: $*" >&2; exit 1; }
+# expect CODE PATTERN cmd...: runs cmd, checks its exit code and that stderr+stdout match PATTERN
+expect() {
+    want=$1 pattern=$2
+    shift 2
+    "$@" >out.txt 2>err.txt
+    got=$?
+    [ "$got" -eq "$want" ] || { cat out.txt err.txt >&2; fail "'$*' exited $got, expected $want"; }
+    cat out.txt err.txt | grep -q -- "$pattern" || { cat out.txt err.txt >&2; fail "'$*' did not say '$pattern'"; }
+}
+
+expect 0 "synth 6/6" "$HDNET" synth set --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5
+for f in 0000.png 0000.mask.png 0000.normal.png 0000.albedo.png 0000.normal_gt.png 0000.shading.png \
+         0000.shading.pfm 0000.light.txt 0001.png; do
+    [ -s "set/subject_0002/$f" ] || fail "set/subject_0002/$f is missing"
+done
+[ -s set/preview.sheet.png ] || fail "no preview sheet"
+[ "$(wc -l <set/subject_0000/0001.light.txt)" -eq 9 ] || fail "light file is not 9 lines"
+expect 0 "synth 6/6" "$HDNET" synth again --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --threads 1
+cmp -s set/subject_0001/0001.png again/subject_0001/0001.png || fail "same seed, different image"
+cmp -s set/subject_0001/0001.light.txt again/subject_0001/0001.light.txt || fail "same seed, different light"
+
+# ground truth as a prediction, in hdnet decompose's layout
+for d in set/subject_*; do
+    s=$(basename "$d")
+    mkdir -p "pred/$s"
+    for img in "$d"/[0-9][0-9][0-9][0-9].png; do
+        n=$(basename "$img" .png)
+        cp "$d/$n.albedo.png" "$d/$n.shading.pfm" "$d/$n.light.txt" "pred/$s/"
+        cp "$d/$n.normal_gt.png" "pred/$s/$n.normal.png"
+        cp "$img" "pred/$s/$n.recon.png"
+    done
+done
+expect 0 "coarse normals" "$HDNET" eval set --pred pred --json eval.json
+grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.txt ||
+    { cat out.txt >&2; fail "ground truth as a prediction is not a perfect score"; }
+grep -q '"images":	6' eval.json || fail "eval.json lacks the image count"
+grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfect light score"
+
+# usage errors and failures
+expect 2 "subjects" "$HDNET" synth x --per-subject 2
+expect 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
+expect 2 "exactly one" "$HDNET" eval set
+expect 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
+expect 1 "" "$HDNET" eval set --pred no_such_pred
+exit 0

@@ -1,0 +1,230 @@
+/* test_eval.c: SPEC section 7 metrics on hand-computed cases, k-means on separable clusters, the
+ * lighting classification, and a whole run: a synthetic set's ground truth scored as a prediction
+ * gives zero errors and 100 % classification, with the baselines filled. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "test.h"
+#include "core/core.h"
+
+static void test_normals(void)
+{
+    /* four pixels, planar: errors 0, 90, 45 degrees; the fourth (180) is masked out */
+    const float s = (float)M_SQRT1_2;
+    float pred[12] = {0, 1, s, 0, /* x */ 0, 0, 0, 0, /* y */ 1, 0, s, -1 /* z */};
+    float gt[12] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1};
+    float mask[4] = {1, 1, 1, 0};
+    hd_eval_sums sums;
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_normals(&sums, pred, gt, mask, 4);
+    hd_eval_row row;
+    memset(&row, 0, sizeof row);
+    hd_eval_row_from_sums(&sums, &row);
+    CHECK(row.has_normal && !row.has_albedo && !row.has_recon && !row.has_shading);
+    CHECK_NEAR(row.normal_mean, 45.0, 1e-9);
+    CHECK_NEAR(row.normal_std, sqrt((45.0 * 45.0 * 2) / 3.0), 1e-6);
+    for (int k = 0; k < HD_EVAL_THRESHOLDS; k++) CHECK_NEAR(row.normal_under[k], 100.0 / 3.0, 1e-9);
+    /* near-identical vectors: atan2 gives the tiny angle, not acos's noise */
+    float a[3] = {0, 1e-5f, 1}, b[3] = {0, 0, 1};
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_normals(&sums, a, b, NULL, 1);
+    CHECK_NEAR(sums.normal_sum, 1e-5 * 180.0 / M_PI, 1e-9);
+    /* 10 degrees apart: under all thresholds; 22: under 25 and 30; 27: under 30 only */
+    float p3[9], g3[9] = {0, 0, 0, 0, 0, 0, 1, 1, 1};
+    const double deg[3] = {10, 22, 27};
+    for (int i = 0; i < 3; i++) {
+        p3[i] = (float)sin(deg[i] * M_PI / 180);
+        p3[3 + i] = 0;
+        p3[6 + i] = (float)cos(deg[i] * M_PI / 180);
+    }
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_normals(&sums, p3, g3, NULL, 3);
+    CHECK(sums.normal_under[0] == 1 && sums.normal_under[1] == 2 && sums.normal_under[2] == 3);
+    CHECK_NEAR(sums.normal_sum, 59.0, 1e-4);
+}
+
+static void test_maps(void)
+{
+    /* albedo: 2 pixels x 3 channels, differences (0.1, 0, -0.2) and (0, 0.3, 0); a third pixel masked */
+    float gt[9] = {0.5f, 0.5f, 0.9f, 0.5f, 0.2f, 0.9f, 0.5f, 0.5f, 0.9f};
+    float pred[9] = {0.6f, 0.5f, 0.1f, 0.5f, 0.5f, 0.1f, 0.3f, 0.5f, 0.1f};
+    float mask[3] = {1, 1, 0};
+    hd_eval_sums sums;
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_albedo(&sums, pred, gt, mask, 3);
+    hd_eval_row row;
+    memset(&row, 0, sizeof row);
+    hd_eval_row_from_sums(&sums, &row);
+    CHECK(row.has_albedo && !row.has_normal);
+    CHECK_NEAR(row.albedo_mae, 0.6 / 6, 1e-7);
+    CHECK_NEAR(row.albedo_rmse, sqrt(0.14 / 6), 1e-7);
+    /* reconstruction: clamped to [0, 1] like a picture: 1.5 vs 1 and -0.5 vs 0 cost nothing */
+    float rp[6] = {1.5f, 0.5f, -0.5f, 0.5f, 0.5f, 0.5f}, ri[6] = {1.0f, 0.25f, 0.0f, 0.5f, 0.5f, 0.5f};
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_recon(&sums, rp, ri, NULL, 2);
+    memset(&row, 0, sizeof row);
+    hd_eval_row_from_sums(&sums, &row);
+    CHECK_NEAR(row.recon_mae, 0.25 / 6, 1e-7);
+    CHECK_NEAR(row.recon_rmse, sqrt(0.0625 / 6), 1e-7);
+    /* shading: |1.2 - 1.0| and |0.5 - 0.8| -> 0.25 */
+    float sp[3] = {1.2f, 0.5f, 9.0f}, sg[3] = {1.0f, 0.8f, 0.0f};
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_shading(&sums, sp, sg, mask, 3);
+    memset(&row, 0, sizeof row);
+    hd_eval_row_from_sums(&sums, &row);
+    CHECK_NEAR(row.shading_mae, 0.25, 1e-7);
+    /* a NaN prediction is a full miss, not a NaN metric */
+    float np[1] = {NAN}, ng[1] = {0.5f};
+    memset(&sums, 0, sizeof sums);
+    hd_eval_add_shading(&sums, np, ng, NULL, 1);
+    CHECK(sums.shading_abs == 1.0);
+}
+
+static void test_kmeans(void)
+{
+    /* 3 well separated blobs of 20 points in 9-D */
+    enum { N = 60, D = 9, K = 3 };
+    float pts[N * D], cent[K * D];
+    int assign[N], again[N];
+    hd_rng r;
+    hd_rng_seed(&r, 5, 0);
+    for (int i = 0; i < N; i++)
+        for (int j = 0; j < D; j++) pts[i * D + j] = (j == i % K ? 10.0f : 0.0f) + 0.3f * hd_rng_normal(&r);
+    CHECK(hd_kmeans(pts, N, D, K, 42, 100, cent, assign) == HD_OK);
+    /* every blob maps to one cluster, and the three clusters differ */
+    for (int i = 0; i < N; i++) CHECK(assign[i] == assign[i % K]);
+    CHECK(assign[0] != assign[1] && assign[1] != assign[2] && assign[0] != assign[2]);
+    /* centroids are the blob means */
+    for (int b = 0; b < K; b++) {
+        double mean = 0;
+        for (int i = b; i < N; i += K) mean += pts[i * D + b];
+        CHECK_NEAR(cent[assign[b] * D + b], mean / (N / K), 1e-4);
+    }
+    /* deterministic for a seed */
+    float cent2[K * D];
+    CHECK(hd_kmeans(pts, N, D, K, 42, 100, cent2, again) == HD_OK);
+    CHECK(memcmp(assign, again, sizeof assign) == 0 && memcmp(cent, cent2, sizeof cent) == 0);
+    /* k > n is clamped; all-equal points do not break the seeding */
+    float same[4 * 2] = {1, 1, 1, 1, 1, 1, 1, 1};
+    float c4[10 * 2];
+    int a4[4];
+    CHECK(hd_kmeans(same, 4, 2, 10, 1, 10, c4, a4) == HD_OK);
+    for (int i = 0; i < 4; i++) CHECK(a4[i] >= 0 && a4[i] < 4);
+    CHECK(hd_kmeans(pts, 0, D, K, 1, 10, cent, assign) == HD_ERR_ARG);
+    pts[5] = NAN;
+    CHECK(hd_kmeans(pts, N, D, K, 1, 10, cent, assign) == HD_ERR_NUMERIC);
+}
+
+static void test_light_accuracy(void)
+{
+    /* 10 groups of lights from 10 directions, 5 each */
+    enum { N = 50 };
+    float gt[N * HD_SH_COEFFS], pred[N * HD_SH_COEFFS];
+    hd_rng r;
+    hd_rng_seed(&r, 9, 0);
+    for (int i = 0; i < N; i++) {
+        int g = i % 10;
+        hd_light_from_direction(-80.0f + 17.0f * (float)g, g % 2 ? 30.0f : -20.0f, 1.0f + 0.02f * hd_rng_normal(&r), 0.5f,
+                                gt + i * HD_SH_COEFFS);
+    }
+    double acc = 0;
+    memcpy(pred, gt, sizeof gt);
+    CHECK(hd_eval_light_accuracy(gt, pred, N, 10, HD_EVAL_KMEANS_SEED, &acc) == HD_OK);
+    CHECK_NEAR(acc, 100.0, 1e-9);
+    /* every predicted light replaced by one from the opposite side: almost nothing matches */
+    for (int i = 0; i < N; i++) memcpy(pred + i * HD_SH_COEFFS, gt + ((i + 5) % N) * HD_SH_COEFFS, HD_SH_COEFFS * sizeof(float));
+    CHECK(hd_eval_light_accuracy(gt, pred, N, 10, HD_EVAL_KMEANS_SEED, &acc) == HD_OK);
+    CHECK(acc < 30.0);
+    /* a NaN light is a miss */
+    memcpy(pred, gt, sizeof gt);
+    pred[0] = NAN;
+    CHECK(hd_eval_light_accuracy(gt, pred, N, 10, HD_EVAL_KMEANS_SEED, &acc) == HD_OK);
+    CHECK_NEAR(acc, 98.0, 1e-9);
+}
+
+static int copy_file(const char *from, const char *to)
+{
+    char *data = NULL;
+    size_t n = 0;
+    if (hd_read_file(from, 1 << 26, &data, &n) != HD_OK) return 0;
+    FILE *f = fopen(to, "wb");
+    int ok = f && fwrite(data, 1, n, f) == n;
+    if (f) ok &= fclose(f) == 0;
+    free(data);
+    return ok;
+}
+
+static void use_source_models(void)
+{
+    const char *td = getenv("HDNET_TESTDATA");
+    if (!td || getenv("HDNET_DATA")) return;
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", td);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    size_t len = strlen(dir);
+    snprintf(dir + len, sizeof dir - len, "/../models");
+    setenv("HDNET_DATA", dir, 1);
+}
+
+/* The ground truth of a small synthetic set, scored as a prediction. */
+static void test_run(void)
+{
+    hd_synth_options o = {4, 3, 32, 3, 4.0f};
+    if (hd_synth_write_set("set", &o, NULL, NULL) != HD_OK) {
+        fprintf(stderr, "synth: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    for (int s = 0; s < 4; s++) {
+        char dir[64];
+        snprintf(dir, sizeof dir, "pred/subject_%04d", s);
+        CHECK(hd_mkdirs(dir) == HD_OK);
+        for (int i = 0; i < 3; i++) {
+            static const char *const pairs[][2] = {{".albedo.png", ".albedo.png"}, {".shading.pfm", ".shading.pfm"},
+                                                   {".normal_gt.png", ".normal.png"}, {".light.txt", ".light.txt"},
+                                                   {".png", ".recon.png"}};
+            for (int k = 0; k < 5; k++) {
+                char a[128], b[128];
+                snprintf(a, sizeof a, "set/subject_%04d/%04d%s", s, i, pairs[k][0]);
+                snprintf(b, sizeof b, "%s/%04d%s", dir, i, pairs[k][1]);
+                CHECK(copy_file(a, b));
+            }
+        }
+    }
+    hd_eval_report rep;
+    CHECK(hd_eval_run("set", "pred", NULL, &rep, NULL) == HD_OK);
+    CHECK(rep.images == 12 && rep.skipped == 0 && rep.nrows == 4 && rep.kmeans_k == 10);
+    const hd_eval_row *p = &rep.rows[0];
+    CHECK(p->has_normal && p->has_albedo && p->has_recon && p->has_shading && p->has_light);
+    CHECK(p->normal_mean < 1e-3 && p->normal_under[0] == 100.0);
+    CHECK(p->albedo_mae == 0.0 && p->recon_mae == 0.0 && p->shading_mae == 0.0);
+    CHECK(p->light_accuracy == 100.0);
+    /* the baselines: coarse normals off by degrees, LS light classified, mean colour off */
+    CHECK(rep.rows[1].has_normal && rep.rows[1].normal_mean > 3.0 && !rep.rows[1].has_albedo);
+    CHECK(rep.rows[2].has_light && rep.rows[2].has_shading && rep.rows[2].shading_mae > 0.0);
+    CHECK(rep.rows[3].has_albedo && rep.rows[3].albedo_mae > 0.01);
+    CHECK(hd_eval_report_write_json("eval.json", &rep) == HD_OK);
+    char *json = NULL;
+    size_t n = 0;
+    CHECK(hd_read_file("eval.json", 1 << 20, &json, &n) == HD_OK);
+    CHECK(json && strstr(json, "\"light_accuracy_pct\":\t100") && strstr(json, "\"images\":\t12"));
+    free(json);
+    /* a missing prediction is skipped with a reason; no prediction at all is an error */
+    CHECK(remove("pred/subject_0002/0001.albedo.png") == 0);
+    CHECK(hd_eval_run("set", "pred", NULL, &rep, NULL) == HD_OK);
+    CHECK(rep.images == 11 && rep.skipped == 1);
+    CHECK(hd_eval_run("set", "nothing_here", NULL, &rep, NULL) == HD_ERR_NOTFOUND);
+    CHECK(hd_eval_run("set", NULL, NULL, &rep, NULL) == HD_ERR_ARG);
+}
+
+int main(void)
+{
+    use_source_models();
+    test_normals();
+    test_maps();
+    test_kmeans();
+    test_light_accuracy();
+    test_run();
+    return test_summary("test_eval");
+}
