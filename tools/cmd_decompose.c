@@ -1,0 +1,276 @@
+/* cmd_decompose.c: `hdnet decompose`: aligned face textures (files, or SPEC section 5 folders) into
+ * albedo, shading, normals, light and reconstruction, with a contact sheet per image, in batches
+ * with a progress line (docs/usage.md gives the output layout, which `hdnet eval --pred` reads).
+ * decompose_textures is the texture-in, texture-out core; everything else is file handling. One
+ * unreadable image is reported and skipped; the exit status is 1 at the end if any failed. */
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+#include "core/core.h"
+#include "io/dataset.h"
+
+HD_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of aligned faces (files or folders)")
+
+#define SHEET_BORDER 4
+
+/* One image to decompose: where it is and where its outputs go (out_dir/name.*). */
+typedef struct job {
+    char *image, *out_dir, *name;
+} job;
+
+typedef struct job_list {
+    job *v;
+    int count, cap;
+} job_list;
+
+static char *dup_str(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d) memcpy(d, s, n);
+    return d;
+}
+
+static int job_add(job_list *jobs, const char *image, const char *out_dir, const char *name)
+{
+    if (jobs->count == jobs->cap) {
+        int cap = jobs->cap ? jobs->cap * 2 : 64;
+        job *v = realloc(jobs->v, (size_t)cap * sizeof *v);
+        if (!v) return 0;
+        jobs->v = v;
+        jobs->cap = cap;
+    }
+    job *j = &jobs->v[jobs->count];
+    j->image = dup_str(image);
+    j->out_dir = dup_str(out_dir);
+    j->name = dup_str(name);
+    if (!j->image || !j->out_dir || !j->name) {
+        free(j->image);
+        free(j->out_dir);
+        free(j->name);
+        return 0;
+    }
+    jobs->count++;
+    return 1;
+}
+
+static void job_list_free(job_list *jobs)
+{
+    for (int i = 0; i < jobs->count; i++) {
+        free(jobs->v[i].image);
+        free(jobs->v[i].out_dir);
+        free(jobs->v[i].name);
+    }
+    free(jobs->v);
+}
+
+static void warn_line(const char *message) { fprintf(stderr, "hdnet decompose: %s\n", message); }
+
+/* Adds the images of one command-line input: a file goes to out/NAME.*, a SPEC section 5 folder
+ * to out/SUBJECT/NAME.* (a folder of images without subject folders is one subject named after
+ * the folder, as hd_dataset_scan has it). */
+static hd_status add_input(job_list *jobs, const char *input, const char *out)
+{
+    if (hd_is_dir(input)) {
+        char *dir = dup_str(input);
+        if (!dir) return hd_fail(HD_ERR_NOMEM, "out of memory");
+        for (size_t n = strlen(dir); n > 1 && dir[n - 1] == '/'; n--) dir[n - 1] = '\0';
+        hd_dataset ds;
+        hd_status st = hd_dataset_scan(dir, &ds, warn_line);
+        free(dir);
+        if (st != HD_OK) return st;
+        for (int i = 0; i < ds.count && st == HD_OK; i++) {
+            char *sub = hd_path_join(out, ds.samples[i].subject);
+            if (!sub || !job_add(jobs, ds.samples[i].image, sub, ds.samples[i].name))
+                st = hd_fail(HD_ERR_NOMEM, "out of memory listing %s", input);
+            free(sub);
+        }
+        hd_dataset_free(&ds);
+        return st;
+    }
+    const char *slash = strrchr(input, '/');
+    const char *base = slash ? slash + 1 : input;
+    const char *dot = strrchr(base, '.');
+    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
+    char *name = malloc(n + 1);
+    if (!name) return hd_fail(HD_ERR_NOMEM, "out of memory");
+    memcpy(name, base, n);
+    name[n] = '\0';
+    int ok = job_add(jobs, input, out, name);
+    free(name);
+    return ok ? HD_OK : hd_fail(HD_ERR_NOMEM, "out of memory");
+}
+
+/* The core: decomposes count aligned textures (d[i] at the model size) and draws the contact
+ * sheet input | albedo | shading | normal | reconstruction of each into sheets[i]. */
+static hd_status decompose_textures(hd_model *model, const hd_image *tex, int count, hd_decomposition *d,
+                                    hd_sheet *sheets)
+{
+    for (int i = 0; i < count; i++) memset(&sheets[i], 0, sizeof sheets[i]);
+    hd_status st = hd_model_decompose(model, tex, count, d);
+    if (st != HD_OK) return st;
+    for (int i = 0; i < count && st == HD_OK; i++) {
+        st = hd_sheet_init(&sheets[i], 1, 5, d[i].albedo.width, SHEET_BORDER);
+        if (st == HD_OK) st = hd_sheet_put_decomposition(&sheets[i], 0, &tex[i], &d[i]);
+    }
+    if (st != HD_OK) {
+        for (int i = 0; i < count; i++) {
+            hd_sheet_free(&sheets[i]);
+            hd_decomposition_free(&d[i]);
+        }
+    }
+    return st;
+}
+
+/* out_dir/name + suffix (malloc'ed). */
+static char *out_path(const job *j, const char *suffix)
+{
+    size_t n = strlen(j->out_dir) + strlen(j->name) + strlen(suffix) + 2;
+    char *p = malloc(n);
+    if (p) snprintf(p, n, "%s/%s%s", j->out_dir, j->name, suffix);
+    else hd_fail(HD_ERR_NOMEM, "out of memory");
+    return p;
+}
+
+/* Writes every output of one image; mask is at the decomposition's size. */
+static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd_image *mask, const hd_sheet *sheet)
+{
+    static const char *const suffix[] = {".albedo.png", ".shading.png", ".shading.pfm", ".normal.png",
+                                         ".light.txt",  ".recon.png",   ".sheet.png"};
+    enum { N_OUT = 7 };
+    char *path[N_OUT] = {0};
+    hd_image half = {0}, rgb = {0};
+    hd_status st = hd_mkdirs(j->out_dir);
+    for (int k = 0; k < N_OUT && st == HD_OK; k++)
+        if (!(path[k] = out_path(j, suffix[k]))) st = HD_ERR_NOMEM;
+    if (st == HD_OK) st = hd_image_write_png(path[0], &d->albedo, 8);
+    if (st == HD_OK) st = hd_image_alloc(&half, d->shading.width, d->shading.height, 1);
+    if (st == HD_OK) {
+        /* NAME.shading.png stores s / 2, so shading up to 2 survives the [0, 1] of a PNG */
+        size_t n = (size_t)half.width * (size_t)half.height;
+        for (size_t p = 0; p < n; p++) half.data[p] = 0.5f * d->shading.data[p];
+        st = hd_image_write_png(path[1], &half, 16);
+    }
+    if (st == HD_OK) st = hd_image_write_pfm(path[2], &d->shading);
+    if (st == HD_OK) st = hd_normal_encode(&d->normal, mask, &rgb);
+    if (st == HD_OK) st = hd_image_write_png(path[3], &rgb, 16);
+    if (st == HD_OK) st = hd_light_write(path[4], d->light);
+    if (st == HD_OK) st = hd_image_write_png(path[5], &d->reconstruction, 8);
+    if (st == HD_OK) st = hd_sheet_write(sheet, path[6]);
+    for (int k = 0; k < N_OUT; k++) free(path[k]);
+    hd_image_free(&half);
+    hd_image_free(&rgb);
+    return st;
+}
+
+int cmd_decompose(int argc, char **argv)
+{
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL;
+    int batch = 4;
+    const hd_opt opts[] = {
+        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        {"output", 'o', HD_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
+        {"batch", 0, HD_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
+        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+         "face mask for images without a NAME.mask.png beside them (default: all ones)"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--mask M.png]",
+        "Decomposes aligned face textures (SPEC section 2) into intrinsic components. For each image\n"
+        "NAME it writes, at the model's size: NAME.albedo.png (8 bit), NAME.shading.png (16 bit,\n"
+        "storing shading / 2), NAME.shading.pfm (exact), NAME.normal.png (16 bit, (n + 1) / 2, 0\n"
+        "outside the mask), NAME.light.txt, NAME.recon.png (albedo x shading) and NAME.sheet.png\n"
+        "(input | albedo | shading | normal | reconstruction). A folder input (SPEC section 5) keeps\n"
+        "its subject folders: DIR/SUBJECT/NAME.*. An unreadable image is reported and skipped; the\n"
+        "exit status is then 1, after every other image is written.",
+        opts, 1, -1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (!out) {
+        free(pos);
+        return hd_usage_error(&spec, "-o is required");
+    }
+    if (batch < 1 || batch > 256) {
+        free(pos);
+        return hd_usage_error(&spec, "--batch wants 1..256, got %d", batch);
+    }
+
+    hd_set_durable_writes(0); /* bulk pictures: atomic (renamed into place) but not fsynced */
+    job_list jobs = {0};
+    hd_model *model = NULL;
+    int failed = 0, written = 0, rc = HD_EXIT_OK;
+    for (int i = 0; i < npos; i++)
+        if (add_input(&jobs, pos[i], out) != HD_OK) {
+            hd_report("decompose");
+            failed++;
+        }
+    free(pos);
+    if (jobs.count == 0) {
+        rc = HD_EXIT_FAIL;
+        goto done;
+    }
+    if (hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
+        rc = hd_report("decompose");
+        goto done;
+    }
+    const int size = hd_model_size(model);
+    hd_image *tex = calloc((size_t)batch, sizeof *tex), *mask = calloc((size_t)batch, sizeof *mask);
+    hd_decomposition *d = calloc((size_t)batch, sizeof *d);
+    hd_sheet *sheets = calloc((size_t)batch, sizeof *sheets);
+    int *index = calloc((size_t)batch, sizeof *index);
+    if (!tex || !mask || !d || !sheets || !index) {
+        fprintf(stderr, "hdnet decompose: out of memory\n");
+        free(tex), free(mask), free(d), free(sheets), free(index);
+        rc = HD_EXIT_FAIL;
+        goto done;
+    }
+    hd_progress progress;
+    hd_progress_start(&progress, "decompose", jobs.count);
+    for (int start = 0; start < jobs.count; start += batch) {
+        int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
+        for (int i = start; i < end; i++) {
+            char *source = NULL;
+            if (hd_image_read_as(jobs.v[i].image, 3, &tex[n]) != HD_OK ||
+                hd_face_mask_read(jobs.v[i].image, mask_path, size, size, &mask[n], &source) != HD_OK) {
+                hd_report("decompose");
+                hd_image_free(&tex[n]);
+                failed++;
+            } else {
+                index[n++] = i;
+            }
+            free(source);
+        }
+        if (n > 0 && decompose_textures(model, tex, n, d, sheets) != HD_OK) {
+            hd_report("decompose");
+            failed += n;
+        } else {
+            for (int k = 0; k < n; k++) {
+                if (write_outputs(&jobs.v[index[k]], &d[k], &mask[k], &sheets[k]) != HD_OK) {
+                    hd_report("decompose");
+                    failed++;
+                } else {
+                    written++;
+                }
+                hd_sheet_free(&sheets[k]);
+                hd_decomposition_free(&d[k]);
+            }
+        }
+        for (int k = 0; k < n; k++) {
+            hd_image_free(&tex[k]);
+            hd_image_free(&mask[k]);
+        }
+        hd_progress_update(&progress, end, NULL);
+    }
+    hd_progress_finish(&progress, jobs.count, NULL);
+    free(tex), free(mask), free(d), free(sheets), free(index);
+    printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
+    if (failed) printf(" (%d failed)", failed);
+    printf("\n");
+    if (failed) rc = HD_EXIT_FAIL;
+done:
+    if (model) hd_model_free(model);
+    job_list_free(&jobs);
+    return rc;
+}

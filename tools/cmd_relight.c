@@ -1,0 +1,193 @@
+/* cmd_relight.c: `hdnet relight`: an aligned face texture under a new light (a light file, a
+ * built-in preset, all seven presets, or a direction), by the paper's rule relit = (I / S) x
+ * s(N, l) (docs/usage.md). relight_texture is the texture-in, texture-out core; everything else
+ * here is file handling. */
+#include <limits.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+#include "core/core.h"
+
+HD_COMMAND("relight", cmd_relight, "relight an aligned face under a light file, a preset or a direction")
+
+/* The core: decomposes tex once and relights it under each of count lights (relit[count]); delit
+ * (may be NULL) receives the albedo under flat light. */
+static hd_status relight_texture(hd_model *model, const hd_image *tex, const hd_image *mask,
+                                 const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness,
+                                 hd_image *relit, hd_image *delit)
+{
+    hd_decomposition d;
+    memset(&d, 0, sizeof d);
+    for (int i = 0; i < count; i++) memset(&relit[i], 0, sizeof relit[i]);
+    if (delit) memset(delit, 0, sizeof *delit);
+    hd_status st = hd_model_decompose(model, tex, 1, &d);
+    for (int i = 0; i < count && st == HD_OK; i++) st = hd_relight(tex, &d, mask, lights[i], brightness, &relit[i]);
+    if (st == HD_OK && delit) st = hd_delight(tex, &d, mask, delit);
+    hd_decomposition_free(&d);
+    if (st != HD_OK) {
+        for (int i = 0; i < count; i++) hd_image_free(&relit[i]);
+        if (delit) hd_image_free(delit);
+    }
+    return st;
+}
+
+/* "dir/NAME.ext" -> "NAME" (malloc'ed). */
+static char *stem_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *dot = strrchr(base, '.');
+    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
+    char *s = malloc(n + 1);
+    if (s) {
+        memcpy(s, base, n);
+        s[n] = '\0';
+    }
+    return s;
+}
+
+/* Sheet: input | delit | relit under each light. */
+static hd_status write_sheet(const char *path, const hd_image *input, const hd_image *delit, const hd_image *relit,
+                             int count)
+{
+    hd_sheet sheet;
+    int cell = input->width > 256 ? 256 : input->width;
+    hd_status st = hd_sheet_init(&sheet, 1, count + 2, cell, 4);
+    if (st != HD_OK) return st;
+    st = hd_sheet_put(&sheet, 0, 0, input, HD_SHEET_PICTURE);
+    if (st == HD_OK) st = hd_sheet_put(&sheet, 0, 1, delit, HD_SHEET_PICTURE);
+    for (int i = 0; i < count && st == HD_OK; i++) st = hd_sheet_put(&sheet, 0, i + 2, &relit[i], HD_SHEET_PICTURE);
+    if (st == HD_OK) st = hd_sheet_write(&sheet, path);
+    hd_sheet_free(&sheet);
+    return st;
+}
+
+int cmd_relight(int argc, char **argv)
+{
+    const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
+    const char *sheet_path = NULL;
+    hd_opt_floats dir = {.max = 2};
+    float intensity = NAN, ambient = NAN;
+    int keep = 0, no_keep = 0;
+    static char intensity_help[96], ambient_help[96];
+    snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
+             (double)HD_LIGHT_DEFAULT_INTENSITY);
+    snprintf(ambient_help, sizeof ambient_help, "with --dir: constant shading added everywhere (default %g)",
+             (double)HD_LIGHT_DEFAULT_AMBIENT);
+    const hd_opt opts[] = {
+        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        {"light", 0, HD_OPT_STRING, &light_path, "L.txt", "target light file (9 SH coefficients, DPR order)"},
+        {"preset", 0, HD_OPT_STRING, &preset, "K|all",
+         "built-in light K in 0..6; 'all' writes all seven, -o is then a folder"},
+        {"dir", 0, HD_OPT_FLOATS, &dir, "AZ,EL",
+         "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
+        {"intensity", 0, HD_OPT_FLOAT, &intensity, "I", intensity_help},
+        {"ambient", 0, HD_OPT_FLOAT, &ambient, "A", ambient_help},
+        {"output", 'o', HD_OPT_STRING, &out, "OUT", "relit image (PNG); with --preset all a folder"},
+        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png", "face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
+        {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
+        {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "relight",
+        "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT",
+        "Relights an aligned face texture (SPEC section 2): the final albedo I / S (S the predicted\n"
+        "shading) times the shading of the target light on the predicted normals. Masked-out pixels\n"
+        "keep the input. With --preset all, OUT is a folder that receives NAME.preset0.png ..\n"
+        "NAME.preset6.png. The output has the input's size.",
+        opts, 1, 1};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    const char *image_path = pos[0];
+    free(pos);
+
+    const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0);
+    if (modes != 1) return hd_usage_error(&spec, "give exactly one of --light, --preset and --dir");
+    if (dir.count == 1) return hd_usage_error(&spec, "--dir wants two numbers AZ,EL");
+    if ((!isnan(intensity) || !isnan(ambient)) && dir.count == 0)
+        return hd_usage_error(&spec, "--intensity and --ambient go with --dir");
+    if (!out) return hd_usage_error(&spec, "-o is required");
+    if (keep && no_keep) return hd_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
+    const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+
+    float lights[HD_LIGHT_PRESETS][HD_SH_COEFFS];
+    int count = 1, all = 0;
+    if (preset) {
+        char *end = NULL;
+        long k = strtol(preset, &end, 10);
+        if (strcmp(preset, "all") == 0) {
+            all = 1;
+            count = HD_LIGHT_PRESETS;
+            for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, lights[i]);
+        } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
+            return hd_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
+        } else {
+            hd_light_preset((int)k, lights[0]);
+        }
+    } else if (dir.count) {
+        hd_light_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
+                                isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient, lights[0]);
+    } else if (hd_light_read(light_path, lights[0]) != HD_OK) {
+        return hd_report("relight");
+    }
+
+    hd_model *model = NULL;
+    hd_image tex = {0}, mask = {0}, delit = {0};
+    hd_image relit[HD_LIGHT_PRESETS];
+    memset(relit, 0, sizeof relit);
+    char *mask_source = NULL, *stem = NULL;
+    int rc = HD_EXIT_FAIL;
+    if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
+        hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
+        hd_model_load(model_path, &model) != HD_OK) {
+        rc = hd_report("relight");
+        goto done;
+    }
+    if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
+        fprintf(stderr, "hdnet relight: note: using %s beside the image, not --mask %s\n", mask_source, mask_path);
+    if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
+                        sheet_path ? &delit : NULL) != HD_OK) {
+        rc = hd_report("relight");
+        goto done;
+    }
+    if (all) {
+        stem = stem_of(image_path);
+        if (!stem || hd_mkdirs(out) != HD_OK) {
+            rc = hd_report("relight");
+            goto done;
+        }
+        for (int i = 0; i < count; i++) {
+            char file[4096];
+            if (snprintf(file, sizeof file, "%s/%s.preset%d.png", out, stem, i) >= (int)sizeof file) {
+                fprintf(stderr, "hdnet relight: %s: output path too long\n", out);
+                goto done;
+            }
+            if (hd_image_write_png(file, &relit[i], 8) != HD_OK) {
+                rc = hd_report("relight");
+                goto done;
+            }
+        }
+        printf("%s/%s.preset0.png .. preset%d.png\n", out, stem, count - 1);
+    } else if (hd_image_write_png(out, &relit[0], 8) != HD_OK) {
+        rc = hd_report("relight");
+        goto done;
+    }
+    if (sheet_path && write_sheet(sheet_path, &tex, &delit, relit, count) != HD_OK) {
+        rc = hd_report("relight");
+        goto done;
+    }
+    rc = HD_EXIT_OK;
+done:
+    for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_image_free(&relit[i]);
+    hd_image_free(&delit);
+    hd_image_free(&tex);
+    hd_image_free(&mask);
+    if (model) hd_model_free(model);
+    free(mask_source);
+    free(stem);
+    return rc;
+}
