@@ -449,9 +449,10 @@ hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
 /* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
  * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
  * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
- * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask may be NULL:
- * face->mask, resized, is used; if that is empty too, every texel). *warped gets the texture's
- * channels, *coverage 1 channel: 1 where the pixel received a face value, else 0 (and warped 0). */
+ * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask, of any size, is
+ * read at the texel's UV; NULL: face->mask, or if that is empty the texels inside the mesh's UV
+ * layout). *warped gets the texture's channels, *coverage 1 channel: 1 where the pixel received a
+ * face value, else 0 (and warped 0). */
 hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
                        hd_image *warped, hd_image *coverage);
 
@@ -478,7 +479,7 @@ hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int off
                            double tolerance, hd_image *target, hd_poisson_report *report);
 
 /* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
- * face->mask > 0.5, or everywhere if face->mask is empty) back into `photo` (the photo the face
+ * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo the face
  * came from, same size and channels as the texture) with hd_warp_back, and blends it in with
  * hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by one
  * pixel, so that outside the face the photo is untouched and no seam shows. report may be NULL. */

@@ -198,6 +198,29 @@ static void test_round_trip_and_normals(void)
     hd_image_free(&warped);
     hd_image_free(&coverage);
 
+    /* without any mask, the texels inside the UV layout are used */
+    hd_image saved_mask = face.mask;
+    face.mask = (hd_image){0};
+    CHECK(hd_warp_back(&face, &face.texture, NULL, &warped, &coverage) == HD_OK);
+    face.mask = saved_mask;
+    long n_layout;
+    psnr = psnr_inside(&photo, &warped, &coverage, &n_layout);
+    CHECK(psnr > 30 && n_layout >= n);
+    hd_image_free(&warped);
+    hd_image_free(&coverage);
+
+    /* a face moved entirely off the photo: nothing to warp, the blend leaves the photo alone */
+    hd_aligned_face away = face;
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++) away.landmarks[i][0] += 5000;
+    CHECK(hd_warp_back(&away, &face.texture, NULL, &warped, &coverage) == HD_OK);
+    double covered = 0;
+    for (size_t i = 0; i < (size_t)photo.width * photo.height; i++) covered += coverage.data[i];
+    CHECK(covered == 0);
+    hd_image_free(&warped);
+    hd_image_free(&coverage);
+    hd_poisson_report away_rep;
+    CHECK(hd_warp_back_blend(&away, &face.texture, 0, &photo, &away_rep) == HD_OK && away_rep.unknowns == 0);
+
     /* a texture at another size (a model's output) warps back too */
     hd_image small = {0};
     CHECK(hd_image_resize(&face.texture, 128, 128, &small) == HD_OK);

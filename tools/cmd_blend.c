@@ -17,8 +17,8 @@ int cmd_blend(int argc, char **argv)
         {"source", 's', HD_OPT_STRING, &source_path, "S.png", "the image to blend in (required)"},
         {"target", 't', HD_OPT_STRING, &target_path, "T.png", "the photo to blend into (required)"},
         {"mask", 'm', HD_OPT_STRING, &mask_path, "M.png",
-         "where the source counts (> 0.5; source-sized; default: all of it, or with --warp the texture's own mask if "
-         "none)"},
+         "where the source counts (> 0.5; source-sized; default: all of it, with --warp the mesh's UV layout; "
+         "give the face's .mask.png)"},
         {"offset", 0, HD_OPT_FLOATS, &offset, "X,Y", "target pixel of the source's top-left pixel (default 0,0)"},
         {"warp", 'w', HD_OPT_STRING, &warp_path, "W.warp.txt",
          "the source is an aligned texture of this face (from `hdnet align`): warp it back into the target first"},
@@ -75,12 +75,8 @@ int cmd_blend(int argc, char **argv)
             reported = 1;
             goto done;
         }
-        /* the texture's own mask: given, else every texel */
-        if (!mask.data) {
-            if (hd_image_alloc(&mask, source.width, source.height, 1)) goto done;
-            for (size_t i = 0; i < (size_t)source.width * source.height; i++) mask.data[i] = 1.0f;
-        }
-        face.mask = mask; /* borrowed: hd_warp_back_blend samples the texture where this is > 0.5 */
+        /* the texture's own mask if given (borrowed: sampled where > 0.5), else the UV layout */
+        face.mask = mask;
         hd_status st = hd_warp_back_blend(&face, &source, tolerance, &target, &rep);
         face.mask = (hd_image){0};
         if (st) goto done;

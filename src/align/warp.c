@@ -114,16 +114,32 @@ static hd_status warp_window(const hd_aligned_face *face, const hd_mesh *mesh, c
                              const hd_image *texture, const hd_image *tex_mask, hd_image *warped,
                              hd_image *coverage)
 {
-    hd_status st = hd_image_alloc(warped, r->width, r->height, texture->channels);
-    if (st) return st;
-    st = hd_image_alloc(coverage, r->width, r->height, 1);
-    if (st) {
-        hd_image_free(warped);
-        return st;
-    }
+    int tw = texture->width, th = texture->height, nc = texture->channels;
     const hd_image *m = tex_mask;
     if (!m && face->mask.data && face->mask.width > 0) m = &face->mask;
-    int tw = texture->width, th = texture->height, nc = texture->channels;
+    hd_image layout = {0};
+    hd_status st = HD_OK;
+    if (!m) {
+        /* no mask at all: every texel inside the mesh's UV layout counts */
+        hd_uv_raster uvr;
+        int side = tw > th ? tw : th;
+        if (side > 1024) side = 1024; /* read by UV: a finer layout would change nothing */
+        if ((st = hd_mesh_uv_raster(mesh, side, &uvr))) return st;
+        st = hd_image_alloc(&layout, side, side, 1);
+        for (size_t i = 0; !st && i < (size_t)side * side; i++) layout.data[i] = uvr.tri[i] >= 0 ? 1.0f : 0.0f;
+        hd_uv_raster_free(&uvr);
+        if (st) return st;
+        m = &layout;
+    }
+    if ((st = hd_image_alloc(warped, r->width, r->height, texture->channels))) {
+        hd_image_free(&layout);
+        return st;
+    }
+    if ((st = hd_image_alloc(coverage, r->width, r->height, 1))) {
+        hd_image_free(warped);
+        hd_image_free(&layout);
+        return st;
+    }
     size_t plane = (size_t)r->width * r->height, tplane = (size_t)tw * th;
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < r->height; y++)
@@ -148,7 +164,7 @@ static hd_status warp_window(const hd_aligned_face *face, const hd_mesh *mesh, c
                     int sx = ix + dx, sy = iy + dy;
                     if (sx < 0 || sy < 0 || sx >= tw || sy >= th) continue;
                     float w = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
-                    if (m) w *= mask_at(m, (sx + 0.5f) / tw, (sy + 0.5f) / th) > 0.5f ? 1.0f : 0.0f;
+                    if (mask_at(m, (sx + 0.5f) / tw, (sy + 0.5f) / th) <= 0.5f) w = 0;
                     if (w <= 0) continue;
                     wsum += w;
                     for (int c = 0; c < nc && c < 4; c++) acc[c] += w * texture->data[c * tplane + (size_t)sy * tw + sx];
@@ -157,6 +173,7 @@ static hd_status warp_window(const hd_aligned_face *face, const hd_mesh *mesh, c
             for (int c = 0; c < nc && c < 4; c++) warped->data[c * plane + i] = acc[c] / wsum;
             coverage->data[i] = 1.0f;
         }
+    hd_image_free(&layout);
     return HD_OK;
 }
 
@@ -194,10 +211,10 @@ hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, con
     hd_image ww = {0}, cw = {0};
     st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign,
                                face->photo_width, face->photo_height, &r);
-    if (!st) st = warp_window(face, &mesh, &r, texture, tex_mask, &ww, &cw);
+    if (!st && r.width > 0 && r.height > 0) st = warp_window(face, &mesh, &r, texture, tex_mask, &ww, &cw);
     if (!st) st = hd_image_alloc(warped, face->photo_width, face->photo_height, texture->channels);
     if (!st) st = hd_image_alloc(coverage, face->photo_width, face->photo_height, 1);
-    if (!st) {
+    if (!st && ww.data) {
         size_t plane = (size_t)face->photo_width * face->photo_height, wplane = (size_t)r.width * r.height;
         for (int c = 0; c < texture->channels; c++)
             for (int y = 0; y < r.height; y++)
@@ -206,7 +223,7 @@ hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, con
         for (int y = 0; y < r.height; y++)
             memcpy(&coverage->data[(size_t)(y + r.y0) * face->photo_width + r.x0], &cw.data[(size_t)y * r.width],
                    (size_t)r.width * sizeof(float));
-    } else {
+    } else if (st) {
         hd_image_free(warped);
         hd_image_free(coverage);
     }
@@ -236,9 +253,10 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
     hd_image warped = {0}, coverage = {0}, region = {0};
     st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign,
                                face->photo_width, face->photo_height, &r);
-    if (!st) st = warp_window(face, &mesh, &r, texture, NULL, &warped, &coverage);
-    if (!st) st = hd_image_alloc(&region, r.width, r.height, 1);
-    if (!st) {
+    int empty = !st && (r.width < 3 || r.height < 3); /* the face is (almost) outside the photo */
+    if (!st && !empty) st = warp_window(face, &mesh, &r, texture, NULL, &warped, &coverage);
+    if (!st && !empty) st = hd_image_alloc(&region, r.width, r.height, 1);
+    if (!st && !empty) {
         /* the region shrunk by one pixel (4-neighbourhood), so that every neighbour of a solved
          * pixel has a warped face value for the guidance field */
         for (int y = 1; y + 1 < r.height; y++)
