@@ -435,6 +435,12 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
  * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
  * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
 hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* The same for many photos: the detector and landmark models (shipped, found with the data search
+ * path) are loaded once (about 0.5 s) and reused. An aligner is not to be shared between threads. */
+typedef struct hd_aligner hd_aligner;
+hd_status hd_aligner_load(hd_aligner **aligner);
+void hd_aligner_free(hd_aligner *aligner);
+hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
 void hd_aligned_face_free(hd_aligned_face *face);
 void hd_aligned_faces_free(hd_aligned_face *faces, int count);
 

@@ -119,6 +119,7 @@ int cmd_align(int argc, char **argv)
     }
     char **photos = NULL;
     int nphotos = 0, cap = 0, rc = HD_EXIT_FAIL;
+    hd_aligner *aligner = NULL;
     for (int i = 0; i < np; i++)
         if (collect(pos[i], &photos, &nphotos, &cap)) {
             hd_report("align");
@@ -129,6 +130,10 @@ int cmd_align(int argc, char **argv)
         goto done;
     }
     int faces_written = 0, no_face = 0, unreadable = 0;
+    if (hd_aligner_load(&aligner)) {
+        hd_report("align");
+        goto done;
+    }
     for (int p = 0; p < nphotos; p++) {
         hd_image photo = {0};
         if (hd_image_read_as(photos[p], 3, &photo)) {
@@ -139,7 +144,7 @@ int cmd_align(int argc, char **argv)
         hd_aligned_face *faces = NULL;
         int count = 0;
         double t0 = hd_seconds();
-        hd_status st = hd_align_photo(&photo, size, &faces, &count);
+        hd_status st = hd_aligner_run(aligner, &photo, size, &faces, &count);
         double seconds = hd_seconds() - t0;
         hd_image_free(&photo);
         if (st == HD_ERR_NOTFOUND || (st == HD_OK && count == 0)) {
@@ -179,6 +184,7 @@ int cmd_align(int argc, char **argv)
                 faces_written ? "" : "hdnet align: ", faces_written, nphotos, out_dir, no_face, unreadable);
     rc = faces_written > 0 ? HD_EXIT_OK : HD_EXIT_FAIL;
 done:
+    hd_aligner_free(aligner);
     for (int i = 0; i < nphotos; i++) free(photos[i]);
     free(photos);
     free(pos);

@@ -182,7 +182,47 @@ done:
 /* MediaPipe drops a face whose landmark model gives a presence below this. */
 #define MIN_PRESENCE 0.5f
 
+struct hd_aligner {
+    hd_face_detector *detector;
+    hd_face_mesh *landmarks;
+};
+
+hd_status hd_aligner_load(hd_aligner **aligner)
+{
+    *aligner = NULL;
+    hd_aligner *a = hd_calloc(1, sizeof *a);
+    if (!a) return HD_ERR_NOMEM;
+    hd_status st = hd_face_detector_load(NULL, &a->detector);
+    if (!st) st = hd_face_mesh_load(NULL, &a->landmarks);
+    if (st) {
+        hd_aligner_free(a);
+        return st;
+    }
+    *aligner = a;
+    return HD_OK;
+}
+
+void hd_aligner_free(hd_aligner *aligner)
+{
+    if (!aligner) return;
+    if (aligner->detector) hd_face_detector_free(aligner->detector);
+    if (aligner->landmarks) hd_face_mesh_free(aligner->landmarks);
+    free(aligner);
+}
+
 hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count)
+{
+    *faces = NULL;
+    *count = 0;
+    hd_aligner *a;
+    hd_status st = hd_aligner_load(&a);
+    if (st) return st;
+    st = hd_aligner_run(a, photo, size, faces, count);
+    hd_aligner_free(a);
+    return st;
+}
+
+hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
 {
     *faces = NULL;
     *count = 0;
@@ -200,7 +240,7 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     int nboxes = 0, dropped = 0;
     hd_aligned_face *out = NULL;
     float (*landmarks)[3] = NULL;
-    if ((st = hd_face_detect(p3, &boxes, &nboxes))) goto done;
+    if ((st = hd_face_detector_run(aligner->detector, p3, HD_FACE_MIN_SCORE, &boxes, &nboxes))) goto done;
     if (nboxes > 0) {
         out = hd_calloc((size_t)nboxes, sizeof *out);
         landmarks = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
@@ -212,7 +252,8 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     hd_status last = HD_OK;
     for (int b = 0; b < nboxes; b++) {
         float presence = 1;
-        hd_status fs = hd_face_landmarks(p3, &boxes[b], landmarks, &presence);
+        /* two passes, as MediaPipe: the detection's crop, then the crop of the first landmarks */
+        hd_status fs = hd_face_mesh_fit(aligner->landmarks, p3, &boxes[b], 2, landmarks, &presence);
         if (fs == HD_ERR_NOMEM) {
             st = fs;
             goto done;
