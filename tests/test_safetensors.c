@@ -159,9 +159,58 @@ static void test_errors(void)
     hd_safetensors_free(&st);
 }
 
+/* Every prefix and many random corruptions of a valid file either read or fail cleanly (no
+ * crash, no leak under make check, nothing left allocated, a reason naming the file). */
+static void test_fuzz(void)
+{
+    char *data;
+    size_t size;
+    if (hd_read_file("rt.safetensors", 1 << 20, &data, &size) != HD_OK) {
+        CHECK(!"cannot read rt.safetensors");
+        return;
+    }
+    hd_rng rng;
+    hd_rng_seed(&rng, 7, 1);
+    int failures = 0;
+    for (int trial = 0; trial < (int)size + 1000; trial++) {
+        size_t n = size;
+        char *copy = malloc(size);
+        memcpy(copy, data, size);
+        if (trial < (int)size) {
+            n = (size_t)trial;
+        } else {
+            /* corrupt the length word and header mostly, where the checks live */
+            uint32_t span = trial % 4 == 0 ? (uint32_t)size : (uint32_t)(size - 62 * sizeof(float));
+            int k = 1 + (int)hd_rng_below(&rng, 3);
+            for (int i = 0; i < k; i++) {
+                static const char pick[] = "{}[]\",:0123456789-.eE \\";
+                size_t at = hd_rng_below(&rng, span);
+                copy[at] = trial % 3 ? pick[hd_rng_below(&rng, sizeof pick - 1)] : (char)hd_rng_u32(&rng);
+            }
+        }
+        remove("fuzz.safetensors");
+        FILE *f = fopen("fuzz.safetensors", "wb");
+        fwrite(copy, 1, n, f);
+        fclose(f);
+        free(copy);
+        hd_safetensors st;
+        if (hd_safetensors_read("fuzz.safetensors", &st) == HD_OK) {
+            for (int i = 0; i < st.count; i++) CHECK(st.tensors[i].name && (st.tensors[i].data || st.tensors[i].ndim > 0));
+            hd_safetensors_free(&st);
+        } else {
+            failures++;
+            CHECK(st.tensors == NULL && st.storage == NULL);
+            CHECK(strstr(hd_error(), "fuzz.safetensors") != NULL);
+        }
+    }
+    CHECK(failures >= (int)size);
+    free(data);
+}
+
 int main(void)
 {
     test_round_trip();
     test_errors();
+    test_fuzz();
     return test_summary("test_safetensors");
 }
