@@ -191,6 +191,14 @@ hd_status syn_regions_build(hd_synth *s)
         float dfold = fminf(seg_dist(px, py, fold[0][0], fold[0][1], fold[0][2], fold[0][3]),
                             seg_dist(px, py, fold[1][0], fold[1][1], fold[1][2], fold[1][3]));
         s->region[SYN_REGION_NASOLABIAL][i] = dfold * SYN_CM_PER_UV;
+        /* mentolabial groove: a short horizontal line between the lower lip and the chin */
+        float sv = 0.5f * (uv[2 * 17 + 1] + uv[2 * 199 + 1]);
+        s->region[SYN_REGION_SULCUS][i] = seg_dist(px, py, 0.5f - 0.05f, sv, 0.5f + 0.05f, sv) * SYN_CM_PER_UV;
+        /* alar creases: arcs around the nose wings (distance to a circle about 129 / 358) */
+        float ax = px < 0.5f ? uv[2 * 129] + 0.012f : uv[2 * 358] - 0.012f, ay = uv[2 * 129 + 1] + 0.008f;
+        float ad = fabsf(sqrtf((px - ax) * (px - ax) + (py - ay) * (py - ay)) - 0.03f);
+        int outer_side = px < 0.5f ? px < ax : px > ax; /* only the outer half of the arc */
+        s->region[SYN_REGION_ALAR][i] = (outer_side && py > ay - 0.02f ? ad : 1.0f) * SYN_CM_PER_UV;
         /* crow's feet: about the outer eye corner, only on its outer side */
         int oc = px < 0.5f ? 33 : 263;
         float dx = (px - uv[2 * oc]) * SYN_CM_PER_UV, dy = (py - uv[2 * oc + 1]) * SYN_CM_PER_UV;

@@ -4,7 +4,8 @@
  *           bridge and tip, cheeks and cheekbones, lips, chin, jaw), mirrored pairs sharing an
  *           amplitude up to a small asymmetry;
  *   detail  a height field at texel resolution (pores, skin undulation, forehead wrinkles, crow's
- *           feet, nasolabial folds) kept as its gradient, which perturbs the normals;
+ *           feet, nasolabial folds, alar creases, the mentolabial groove, lip volume, the eyeballs)
+ *           kept as its gradient, which perturbs the normals;
  *   albedo  a skin tone drawn from measured CIELAB ranges of human skin (docs/synthetic-data.md),
  *           low-frequency blotches, cheek and nose redness, darker skin around the eyes,
  *           freckles and moles at several scales, lips, eyebrows, eyes (sclera, iris, pupil) and
@@ -118,8 +119,8 @@ static hd_status make_detail(const hd_synth *s, hd_rng *r, float *grad)
     syn_noise_view_pick(&mid, s->noise[SYN_NOISE_MID], S, r);
     syn_noise_view_pick(&wob, s->noise[SYN_NOISE_MID], S, r);
     float age = powf(hd_rng_uniform(r), 1.3f);                 /* 0 young .. 1 old */
-    float pore = hd_rng_range(r, 0.006f, 0.016f);              /* cm */
-    float undulation = hd_rng_range(r, 0.05f, 0.11f);          /* cm */
+    float pore = hd_rng_range(r, 0.008f, 0.02f);               /* cm */
+    float undulation = hd_rng_range(r, 0.03f, 0.07f);          /* cm */
     float fore_depth = age * hd_rng_range(r, 0.01f, 0.04f);    /* cm */
     int fore_lines = 2 + (int)hd_rng_below(r, 3);
     float fore_phase = hd_rng_uniform(r);
@@ -127,7 +128,12 @@ static hd_status make_detail(const hd_synth *s, hd_rng *r, float *grad)
     float crow_rays = hd_rng_range(r, 5.0f, 9.0f);
     float fold_depth = (0.25f + age) * hd_rng_range(r, 0.04f, 0.12f);
     float fold_width = hd_rng_range(r, 0.15f, 0.3f); /* cm */
+    float eyeball = hd_rng_range(r, 0.15f, 0.3f);     /* cm the eyeball stands out of the lid plane */
+    float lip_volume = hd_rng_range(r, 0.06f, 0.16f); /* cm */
+    float sulcus = hd_rng_range(r, 0.05f, 0.2f), alar = hd_rng_range(r, 0.05f, 0.15f);
     const float *fore = s->region[SYN_REGION_FOREHEAD], *nose = s->region[SYN_REGION_NOSE], *cheek = s->region[SYN_REGION_CHEEKS];
+    const float *eyes = s->region[SYN_REGION_EYES], *ex = s->region[SYN_REGION_EYE_X], *ey = s->region[SYN_REGION_EYE_Y];
+    const float *lips = s->region[SYN_REGION_LIPS];
     for (int ci = 0; ci < s->ncovered; ci++) {
         int i = s->covered[ci], x = i % S, y = i / S;
         float v = ((float)y + 0.5f) / (float)S;
@@ -146,6 +152,16 @@ static hd_status make_detail(const hd_synth *s, hd_rng *r, float *grad)
             float fall = expf(-(rc - 0.8f) * (rc - 0.8f) / 0.3f);
             hv -= crow_depth * fall * c8;
         }
+        /* the eyeball bulging in the eye opening: a cap of a sphere of radius 1.2 cm */
+        if (eyes[i] > 0) {
+            float r2 = (ex[i] * ex[i] + ey[i] * ey[i]) / (1.2f * 1.2f);
+            hv += eyes[i] * eyeball * (r2 < 1.0f ? 1.0f - r2 : 0.0f);
+        }
+        hv += lip_volume * lips[i];
+        float ds = s->region[SYN_REGION_SULCUS][i] / 0.3f;
+        if (ds < 4.0f) hv -= sulcus * expf(-ds * ds);
+        float da = s->region[SYN_REGION_ALAR][i] / 0.12f;
+        if (da < 4.0f) hv -= alar * expf(-da * da);
         float dn = s->region[SYN_REGION_NASOLABIAL][i] / fold_width;
         if (dn < 4.0f) hv -= fold_depth * expf(-dn * dn);
         h[i] = hv;

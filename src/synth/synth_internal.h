@@ -31,6 +31,8 @@ enum {
     SYN_REGION_CROW_ANGLE, /* angle (radians) about that corner */
     SYN_REGION_EYE_X,      /* inside an eye: offset from the eye's centre, cm (x right) */
     SYN_REGION_EYE_Y,      /* ... (y down) */
+    SYN_REGION_SULCUS,     /* distance (cm) to the mentolabial groove between lower lip and chin */
+    SYN_REGION_ALAR,       /* distance (cm) to the alar creases around the nose wings */
     SYN_REGION_COUNT
 };
 
