@@ -168,36 +168,92 @@ static void test_png_variants(void)
     hd_image_free(&img);
 }
 
-static void test_jpeg(void)
+/* An Adam7-interlaced 16-bit RGB PNG (written with png_write_image) reads like its pixels. */
+static void test_png_interlaced(void)
 {
-    const int w = 32, h = 24;
-    unsigned char rgb[32 * 24 * 3];
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            rgb[(y * w + x) * 3 + 0] = (unsigned char)(x * 255 / (w - 1));
-            rgb[(y * w + x) * 3 + 1] = (unsigned char)(y * 255 / (h - 1));
-            rgb[(y * w + x) * 3 + 2] = 100;
-        }
+    enum { W = 11, H = 9 };
+    static png_byte pixels[H][W * 6];
+    png_bytep rows[H];
+    for (int y = 0; y < H; y++) {
+        rows[y] = pixels[y];
+        for (int k = 0; k < W * 6; k++) pixels[y][k] = (png_byte)(y * 31 + k * 7);
+    }
+    FILE *f = fopen("adam7.png", "wb");
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(png);
+    if (setjmp(png_jmpbuf(png))) {
+        CHECK(!"libpng failed writing the interlaced test image");
+        fclose(f);
+        return;
+    }
+    png_init_io(png, f);
+    png_set_IHDR(png, info, W, H, 16, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_ADAM7, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    png_write_image(png, rows);
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    fclose(f);
+    hd_image img = {0};
+    CHECK(hd_image_read("adam7.png", &img) == HD_OK);
+    CHECK(img.width == W && img.height == H && img.channels == 3);
+    int bad = 0;
+    for (int y = 0; img.data && y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                int k = (x * 3 + c) * 2;
+                float want = (float)((pixels[y][k] << 8) | pixels[y][k + 1]) / 65535.0f;
+                bad += img.data[((size_t)c * H + y) * W + x] != want;
+            }
+    CHECK(bad == 0);
+    hd_image_free(&img);
+}
+
+/* Writes pixels (interleaved, 1 or 3 components) as a quality-95 JPEG with libjpeg. */
+static void write_jpeg(const char *path, int w, int h, int comps, const unsigned char *pixels)
+{
     struct jpeg_compress_struct cinfo;
     struct jpeg_error_mgr jerr;
     cinfo.err = jpeg_std_error(&jerr);
     jpeg_create_compress(&cinfo);
-    FILE *f = fopen("smooth.jpg", "wb");
+    FILE *f = fopen(path, "wb");
     jpeg_stdio_dest(&cinfo, f);
     cinfo.image_width = w;
     cinfo.image_height = h;
-    cinfo.input_components = 3;
-    cinfo.in_color_space = JCS_RGB;
+    cinfo.input_components = comps;
+    cinfo.in_color_space = comps == 1 ? JCS_GRAYSCALE : JCS_RGB;
     jpeg_set_defaults(&cinfo);
     jpeg_set_quality(&cinfo, 95, TRUE);
     jpeg_start_compress(&cinfo, TRUE);
     for (int y = 0; y < h; y++) {
-        JSAMPROW row = rgb + y * w * 3;
+        JSAMPROW row = (JSAMPROW)(pixels + (size_t)y * w * comps);
         jpeg_write_scanlines(&cinfo, &row, 1);
     }
     jpeg_finish_compress(&cinfo);
     jpeg_destroy_compress(&cinfo);
     fclose(f);
+}
+
+static void test_jpeg(void)
+{
+    const int w = 32, h = 24;
+    unsigned char rgb[32 * 24 * 3], gray[32 * 24];
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            rgb[(y * w + x) * 3 + 0] = (unsigned char)(x * 255 / (w - 1));
+            rgb[(y * w + x) * 3 + 1] = (unsigned char)(y * 255 / (h - 1));
+            rgb[(y * w + x) * 3 + 2] = 100;
+            gray[y * w + x] = (unsigned char)((x + y) * 255 / (w + h - 2));
+        }
+    write_jpeg("smooth.jpg", w, h, 3, rgb);
+    write_jpeg("gray.jpg", w, h, 1, gray);
+    hd_image g = {0};
+    CHECK(hd_image_read("gray.jpg", &g) == HD_OK);
+    CHECK(g.channels == 1 && g.width == w && g.height == h);
+    double gworst = 0;
+    for (int p = 0; g.data && p < w * h; p++) gworst = fmax(gworst, fabs(g.data[p] - gray[p] / 255.0));
+    CHECK(gworst < 6 / 255.0);
+    hd_image_free(&g);
 
     hd_image img = {0};
     hd_image_info info;
@@ -222,7 +278,7 @@ static void test_jpeg(void)
     char *data;
     size_t size;
     CHECK(hd_read_file("smooth.jpg", 1 << 20, &data, &size) == HD_OK);
-    f = fopen("cut.jpg", "wb");
+    FILE *f = fopen("cut.jpg", "wb");
     fwrite(data, 1, size * 2 / 3, f);
     fclose(f);
     free(data);
@@ -472,6 +528,7 @@ int main(void)
 {
     test_png_round_trips();
     test_png_variants();
+    test_png_interlaced();
     test_jpeg();
     test_pfm();
     test_resize();
