@@ -151,7 +151,11 @@ hd_status hd_model_load(const char *path, hd_model **model)
     char *found = NULL;
     if (!path) {
         found = hd_find_data("hdnet-synth.safetensors");
-        if (!found) return hd_fail(HD_ERR_NOTFOUND, "no model given and the default model is not installed: %s", hd_error());
+        if (!found) {
+            char why[400];
+            snprintf(why, sizeof why, "%s", hd_error());
+            return hd_fail(HD_ERR_NOTFOUND, "no model given and the default model is not installed: %s", why);
+        }
         path = found;
     }
     hd_safetensors st = {0};

@@ -146,7 +146,7 @@ static void shade_backward(hd_losses *L)
 }
 
 /* L_Irec = mean_m(|I - A*S|), S broadcast over colour. */
-float hd_loss_reconstruction(hd_losses *L, float scale)
+double hd_loss_reconstruction(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
@@ -168,11 +168,11 @@ float hd_loss_reconstruction(hd_losses *L, float scale)
                 dS[p] += drec[(size_t)c * HW + p] * A[(size_t)c * HW + p];
             }
     }
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_a = mean_{m_i m_j}(|A_i - A_j|), once per pair. */
-float hd_loss_albedo_consistency(hd_losses *L, float scale)
+double hd_loss_albedo_consistency(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int HW = net->H * net->W, P = net->B / 2;
@@ -185,11 +185,11 @@ float hd_loss_albedo_consistency(hd_losses *L, float scale)
                           scale != 0.0f ? net->d_albedo + (size_t)j * 3 * HW : NULL, net->albedo + (size_t)i * 3 * HW,
                           net->albedo + (size_t)j * 3 * HW, L->weight, 3, HW, scale / P);
     }
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_s = mean_wx(|dx S| / max(|dx S|, 0.01)) + mean_wy(|dy S| / max(|dy S|, 0.01)). */
-float hd_loss_shading_smoothness(hd_losses *L, float scale)
+double hd_loss_shading_smoothness(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
@@ -197,11 +197,11 @@ float hd_loss_shading_smoothness(hd_losses *L, float scale)
     for (int b = 0; b < B; b++)
         sum += hd_loss_smooth(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
                               L->batch->mask + (size_t)b * HW, net->H, net->W, HD_SMOOTH_EPS, scale / P);
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_n = sum_p m_p ||N_bar_p - N_p||^2 / sum_p m_p (images without coarse normals contribute 0). */
-float hd_loss_normal_prior(hd_losses *L, float scale)
+double hd_loss_normal_prior(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
@@ -212,11 +212,11 @@ float hd_loss_normal_prior(hd_losses *L, float scale)
                               net->normal + (size_t)b * 3 * HW, L->batch->coarse_normal + (size_t)b * 3 * HW,
                               L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
     }
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_l = mean_k |l_k - l_hat_k|, l_hat detached. */
-float hd_loss_light(hd_losses *L, float scale)
+double hd_loss_light(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, P = B / 2;
@@ -232,11 +232,11 @@ float hd_loss_light(hd_losses *L, float scale)
         }
         sum += s / HD_SH_COEFFS;
     }
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_Srec = mean_m(|S - s(N, l)|): reaches S, N and l. */
-float hd_loss_shading_reconstruction(hd_losses *L, float scale)
+double hd_loss_shading_reconstruction(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
@@ -246,19 +246,19 @@ float hd_loss_shading_reconstruction(hd_losses *L, float scale)
                           scale != 0.0f ? L->d_shade + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
                           L->shade + (size_t)b * HW, L->batch->mask + (size_t)b * HW, 1, HW, scale / P);
     if (scale != 0.0f) shade_backward(L);
-    return (float)(sum / P);
+    return sum / P;
 }
 
 /* L_adv = mean over patch logits of softplus(-D(m A s(N, l))) for i and j: with B = 2P images,
  * the mean over pairs of the two per-image means is 2 * (the mean over all B * patches logits). */
-float hd_loss_adversarial(hd_losses *L, float scale)
+double hd_loss_adversarial(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
     memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
     hd_disc_forward(net);
     memset(net->g_logit, 0, n * sizeof(float));
-    float loss = 2.0f * hd_loss_bce_logits(scale != 0.0f ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
     if (scale == 0.0f) return loss;
     memset(net->g_in, 0, B * 3 * HW * sizeof(float));
     hd_disc_backward(net, 1, 0);
@@ -278,7 +278,7 @@ float hd_loss_adversarial(hd_losses *L, float scale)
 }
 
 /* L_D = mean softplus(-D(m I)) + mean softplus(D(render)), i and j, mean over pairs. */
-float hd_loss_discriminator(hd_losses *L, float scale)
+double hd_loss_discriminator(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
@@ -291,17 +291,17 @@ float hd_loss_discriminator(hd_losses *L, float scale)
     }
     hd_disc_forward(net);
     memset(net->g_logit, 0, n * sizeof(float));
-    float real = 2.0f * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    double real = 2.0 * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
     if (grad) hd_disc_backward(net, 0, 1);
     memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
     hd_disc_forward(net);
     memset(net->g_logit, 0, n * sizeof(float));
-    float fake = 2.0f * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 0, 2.0f * scale);
+    double fake = 2.0 * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 0, 2.0f * scale);
     if (grad) hd_disc_backward(net, 0, 1);
     return real + fake;
 }
 
-float hd_losses_generator(hd_losses *L, const hd_loss_weights *w, float terms[HD_LOSS_TERMS], int grad)
+double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[HD_LOSS_TERMS], int grad)
 {
     float s[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) s[k] = grad ? w->w[k] : 0.0f;
@@ -314,5 +314,5 @@ float hd_losses_generator(hd_losses *L, const hd_loss_weights *w, float terms[HD
     terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
-    return (float)total;
+    return total;
 }

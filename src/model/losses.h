@@ -68,22 +68,22 @@ void hd_losses_free(hd_losses *L);
  * predicted normals) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
 hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target);
 
-float hd_loss_reconstruction(hd_losses *L, float scale);
-float hd_loss_albedo_consistency(hd_losses *L, float scale);
-float hd_loss_shading_smoothness(hd_losses *L, float scale);
-float hd_loss_normal_prior(hd_losses *L, float scale);
-float hd_loss_light(hd_losses *L, float scale);
-float hd_loss_shading_reconstruction(hd_losses *L, float scale);
+double hd_loss_reconstruction(hd_losses *L, float scale);
+double hd_loss_albedo_consistency(hd_losses *L, float scale);
+double hd_loss_shading_smoothness(hd_losses *L, float scale);
+double hd_loss_normal_prior(hd_losses *L, float scale);
+double hd_loss_light(hd_losses *L, float scale);
+double hd_loss_shading_reconstruction(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
-float hd_loss_adversarial(hd_losses *L, float scale);
+double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render
  * detached), for i and j, averaged over pairs; accumulates scale times its gradient into
  * net->disc_grads. */
-float hd_loss_discriminator(hd_losses *L, float scale);
+double hd_loss_discriminator(hd_losses *L, float scale);
 
 /* Every generator term (prepare first): terms[k] = L_k, returns sum_k w_k L_k, and accumulates
  * its gradient into the activation gradients when grad is nonzero. */
-float hd_losses_generator(hd_losses *L, const hd_loss_weights *w, float terms[HD_LOSS_TERMS], int grad);
+double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[HD_LOSS_TERMS], int grad);
 
 /* s(n) = sum_k l_k b_k(n) and its gradient wrt the normal (SPEC section 2 basis). */
 float hd_sh_shade_grad(const float light[HD_SH_COEFFS], const float n[3], float dn[3]);

@@ -275,12 +275,12 @@ static hd_status write_dump(const hd_trainer *t, const hd_step_result *r, const 
     ADD("out.light_hat", t->losses.light_hat, 2, B, HD_SH_COEFFS, 0, 0);
     char nm[160];
     for (int k = 0; k < HD_LOSS_TERMS; k++) {
-        scalars[k] = r->terms[k];
+        scalars[k] = (float)r->terms[k];
         snprintf(nm, sizeof nm, "loss.%s", hd_loss_names[k]);
         ADD(nm, &scalars[k], 1, 1, 0, 0, 0);
     }
-    scalars[HD_LOSS_TERMS] = r->total;
-    scalars[HD_LOSS_TERMS + 1] = r->disc;
+    scalars[HD_LOSS_TERMS] = (float)r->total;
+    scalars[HD_LOSS_TERMS + 1] = (float)r->disc;
     ADD("loss.total", &scalars[HD_LOSS_TERMS], 1, 1, 0, 0, 0);
     ADD("loss.disc", &scalars[HD_LOSS_TERMS + 1], 1, 1, 0, 0, 0);
     const hd_param_table *tabs[2] = {&net->table, &net->disc_table};
@@ -785,7 +785,9 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     if (o->resume) {
         hd_safetensors st = {0};
         if ((s = hd_safetensors_read(ckpt, &st)) != HD_OK) {
-            s = hd_fail(s, "cannot resume: %s", hd_error());
+            char why[400];
+            snprintf(why, sizeof why, "%s", hd_error());
+            s = hd_fail(s, "cannot resume: %s", why);
             goto done;
         }
         hd_net_config c;
@@ -877,9 +879,9 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         r->last = res;
         r->iteration = t.iteration;
         float row[HIST_COLS];
-        memcpy(row, res.terms, sizeof res.terms);
-        row[HD_LOSS_TERMS] = res.total;
-        row[HD_LOSS_TERMS + 1] = res.disc;
+        for (int k = 0; k < HD_LOSS_TERMS; k++) row[k] = (float)res.terms[k];
+        row[HD_LOSS_TERMS] = (float)res.total;
+        row[HD_LOSS_TERMS + 1] = (float)res.disc;
         if ((s = history_push(&hist, row)) != HD_OK) goto done;
         fprintf(csvf, "%ld,%.9g", t.iteration, res.total);
         for (int k = 0; k < HD_LOSS_TERMS; k++) fprintf(csvf, ",%.9g", res.terms[k]);

@@ -33,8 +33,8 @@ typedef struct hd_trainer {
 
 /* The outcome of one step. */
 typedef struct hd_step_result {
-    float terms[HD_LOSS_TERMS];
-    float total, disc;
+    double terms[HD_LOSS_TERMS];
+    double total, disc;
 } hd_step_result;
 
 /* Makes a trainer for batches of `pairs` pairs, with parameters initialised from seed

@@ -1,0 +1,455 @@
+/* test_model.c: HD-Net as a whole: parameter counts of SPEC section 3, finite differences of the
+ * total loss (and of each term alone, and of the discriminator's loss) against the analytic
+ * gradient in every layer of every net, the SH shading gradient, a tiny pair overfitting, exact
+ * resume, NaN detection, and clear errors for bad or mismatched checkpoint files. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "test.h"
+#include "model/hdnet_net.h"
+#include "model/losses.h"
+#include "model/train.h"
+#include "model/checkpoint.h"
+
+/* ---- a synthetic pair: one smooth albedo on a sphere-like face under two lights */
+
+static void make_pair(hd_pair_batch *b, int pair, unsigned seed)
+{
+    int S = b->size;
+    size_t HW = (size_t)S * S;
+    float lights[2][HD_SH_COEFFS];
+    hd_light_from_direction(40.0f + 10.0f * seed, 20.0f, 0.8f, 0.5f, lights[0]);
+    hd_light_from_direction(-50.0f, -10.0f + 5.0f * seed, 0.8f, 0.5f, lights[1]);
+    for (int k = 0; k < 2; k++) {
+        int slot = 2 * pair + k;
+        float *I = b->image + (size_t)slot * 3 * HW, *m = b->mask + (size_t)slot * HW;
+        float *N = b->coarse_normal + (size_t)slot * 3 * HW;
+        b->has_normal[slot] = 1;
+        for (int y = 0; y < S; y++)
+            for (int x = 0; x < S; x++) {
+                size_t p = (size_t)y * S + x;
+                float u = (x + 0.5f) / S * 2 - 1, v = 1 - (y + 0.5f) / S * 2, r2 = u * u + v * v;
+                float n[3] = {u * 0.8f, v * 0.8f, sqrtf(fmaxf(1 - 0.64f * r2, 0.05f))};
+                float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                for (int c = 0; c < 3; c++) N[c * HW + p] = n[c] / len;
+                m[p] = r2 < 0.85f ? 1.0f : 0.0f;
+                float s = hd_sh_shade(lights[k], n);
+                float alb[3] = {0.55f + 0.2f * u, 0.4f + 0.1f * v, 0.35f + 0.05f * (u * v)};
+                for (int c = 0; c < 3; c++) I[c * HW + p] = fminf(fmaxf(alb[c] * s * 0.6f, 0.0f), 1.0f);
+            }
+    }
+}
+
+/* ---- parameter counts */
+
+static void test_param_counts(void)
+{
+    hd_net_config cfg = {48, 256};
+    hd_param_table t, d;
+    hd_net_param_table(&cfg, &t);
+    hd_disc_param_table(&d);
+    CHECK(t.total == 3095600);
+    CHECK(d.total == 1555585);
+    if (t.total != 3095600) fprintf(stderr, "HD-Net has %zu parameters\n", t.total);
+    CHECK(strcmp(t.p[0].name, "conv_in.weight") == 0 && t.p[0].shape[0] == 32 && t.p[0].shape[1] == 3);
+    CHECK(strcmp(t.p[t.count - 1].name, "l_net.fc.bias") == 0);
+    CHECK(hd_param_find(&t, "a_net.enc0.weight") == 2);
+    CHECK(hd_param_find(&t, "n_net.dec1c.weight") > hd_param_find(&t, "s_net.dec1c.weight"));
+    int fc = hd_param_find(&t, "l_net.fc.weight");
+    CHECK(fc > 0 && t.p[fc].ndim == 2 && t.p[fc].shape[0] == 9 && t.p[fc].shape[1] == 64);
+    int c1 = hd_param_find(&t, "l_net.conv1.weight");
+    CHECK(c1 > 0 && t.p[c1].shape[0] == 64 && t.p[c1].shape[1] == 48);
+    CHECK(strcmp(d.p[0].name, "disc.c1.weight") == 0 && strcmp(d.p[d.count - 1].name, "disc.out.bias") == 0);
+    /* offsets tile the arena */
+    size_t off = 0;
+    for (int i = 0; i < t.count; i++) {
+        CHECK(t.p[i].offset == off);
+        off += t.p[i].count;
+    }
+    CHECK(off == t.total);
+}
+
+/* ---- the SH shading gradient against finite differences of hd_sh_shade */
+
+static void test_shade_grad(void)
+{
+    float l[HD_SH_COEFFS] = {1.08f, -0.46f, 0.03f, 0.68f, -0.36f, 0.05f, -0.23f, -0.08f, 0.29f};
+    float n[3] = {0.3f, -0.5f, 0.7f}, g[3];
+    float s = hd_sh_shade_grad(l, n, g);
+    CHECK_NEAR(s, hd_sh_shade(l, n), 1e-5);
+    for (int k = 0; k < 3; k++) {
+        float a[3] = {n[0], n[1], n[2]}, b[3] = {n[0], n[1], n[2]};
+        a[k] += 1e-3f;
+        b[k] -= 1e-3f;
+        CHECK_NEAR(g[k], (hd_sh_shade(l, a) - hd_sh_shade(l, b)) / 2e-3f, 2e-3);
+    }
+}
+
+/* ---- finite differences */
+
+static int tiny_trainer(hd_trainer *t, int width, int size, int pairs)
+{
+    hd_net_config cfg = {width, size};
+    if (hd_trainer_create(t, &cfg, pairs, 7) != HD_OK) {
+        fprintf(stderr, "trainer: %s\n", hd_error());
+        test_failures++;
+        return 0;
+    }
+    for (int p = 0; p < pairs; p++) make_pair(&t->batch, p, (unsigned)p);
+    return 1;
+}
+
+static double eval_loss(hd_trainer *t, int disc)
+{
+    hd_step_result r;
+    if (hd_trainer_eval(t, &r, disc ? HD_EVAL_DISC : HD_EVAL_LOSS) != HD_OK) {
+        fprintf(stderr, "eval: %s\n", hd_error());
+        test_failures++;
+        return 0;
+    }
+    return disc ? r.disc : r.total;
+}
+
+/* Directional finite differences: for each group of parameters [first, last) of the table
+ * (a layer, or a whole sub-net), a random direction d over those parameters, and
+ * (L(p + eps d) - L(p - eps d)) / (2 eps) against grad . d. Every parameter takes part. */
+typedef struct fd_group {
+    const char *first, *last; /* tensor names, inclusive */
+} fd_group;
+
+static void check_direction(hd_trainer *t, const char *what, int disc, int i0, int i1, float eps, const float *grad,
+                            double scale)
+{
+    const hd_param_table *tab = disc ? &t->net.disc_table : &t->net.table;
+    float *params = disc ? t->net.disc_params : t->net.params;
+    size_t a = tab->p[i0].offset, b = tab->p[i1].offset + tab->p[i1].count;
+    float *keep = malloc((b - a) * sizeof(float)), *dir = malloc((b - a) * sizeof(float));
+    hd_rng rng;
+    hd_rng_seed(&rng, 11, (uint64_t)i0);
+    /* the step is eps relative to the layer's weights: d uniform in +-rms(p) */
+    double gd = 0, ms = 0;
+    for (size_t k = 0; k < b - a; k++) ms += (double)params[a + k] * params[a + k];
+    float rms = (float)sqrt(ms / (double)(b - a)) + 1e-3f;
+    for (size_t k = 0; k < b - a; k++) {
+        keep[k] = params[a + k];
+        dir[k] = rms * hd_rng_range(&rng, -1.0f, 1.0f);
+        gd += (double)grad[a + k] * dir[k];
+    }
+    for (size_t k = 0; k < b - a; k++) params[a + k] = keep[k] + eps * dir[k];
+    double up = eval_loss(t, disc);
+    for (size_t k = 0; k < b - a; k++) params[a + k] = keep[k] - eps * dir[k];
+    double down = eval_loss(t, disc);
+    memcpy(params + a, keep, (b - a) * sizeof(float));
+    double fd = (up - down) / (2 * eps);
+    double tol = 0.05 * fmax(fabs(fd), fabs(gd)) + 1e-4 * scale;
+    if (!(fabs(fd - gd) <= tol)) {
+        fprintf(stderr, "%s: %s .. %s: finite difference %.7g, analytic %.7g\n", what, tab->p[i0].name, tab->p[i1].name, fd, gd);
+        test_failures++;
+    }
+    free(keep);
+    free(dir);
+}
+
+/* Checks every layer (weight and bias together) or, with by_net, every sub-net as a whole. */
+static void check_gradients(hd_trainer *t, const char *what, int disc, int by_net, float eps)
+{
+    hd_step_result r;
+    if (hd_trainer_eval(t, &r, disc ? HD_EVAL_DISC_GRAD : HD_EVAL_GRAD) != HD_OK) {
+        fprintf(stderr, "eval: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    const hd_param_table *tab = disc ? &t->net.disc_table : &t->net.table;
+    size_t n = tab->total;
+    float *grad = malloc(n * sizeof(float));
+    memcpy(grad, disc ? t->net.disc_grads : t->net.grads, n * sizeof(float));
+    /* what the analytic gradient treats as constants stays constant: N-Net's input S and l_hat */
+    size_t HW = (size_t)t->net.H * t->net.W;
+    float *held = malloc((size_t)t->net.B * HW * sizeof(float));
+    memcpy(held, t->net.shading, (size_t)t->net.B * HW * sizeof(float));
+    t->net.n_input_hold = held;
+    t->losses.hold_light_hat = 1;
+    /* the size of a typical directional derivative, for the absolute tolerance */
+    double scale = 0;
+    for (size_t i = 0; i < n; i++) scale = fmax(scale, fabs(grad[i]));
+    if (by_net) {
+        static const char *const nets[] = {"conv_in", "a_net", "s_net", "n_net", "l_net"};
+        for (int k = 0; k < 5; k++) {
+            int i0 = -1, i1 = -1;
+            for (int i = 0; i < tab->count; i++)
+                if (strncmp(tab->p[i].name, nets[k], strlen(nets[k])) == 0) {
+                    if (i0 < 0) i0 = i;
+                    i1 = i;
+                }
+            check_direction(t, what, disc, i0, i1, eps, grad, scale);
+        }
+    } else {
+        /* under the sanitizers (make check) every third layer, to stay fast */
+        int step = getenv("HD_CHECK") ? 6 : 2;
+        for (int i = 0; i + 1 < tab->count; i += step) check_direction(t, what, disc, i, i + 1, eps, grad, scale);
+    }
+    t->net.n_input_hold = NULL;
+    t->losses.hold_light_hat = 0;
+    free(held);
+    free(grad);
+}
+
+static void test_gradients(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 1)) return;
+    /* every weight on: the total, layer by layer */
+    check_gradients(&t, "total", 0, 0, 1e-3f);
+    /* each term alone, sub-net by sub-net */
+    hd_loss_weights all = t.weights;
+    for (int k = 0; k < HD_LOSS_TERMS; k++) {
+        memset(&t.weights, 0, sizeof t.weights);
+        t.weights.w[k] = 1.0f;
+        check_gradients(&t, hd_loss_names[k], 0, 1, 1e-3f);
+    }
+    t.weights = all;
+    check_gradients(&t, "discriminator", 1, 0, 3e-4f);
+    hd_trainer_free(&t);
+}
+
+/* ---- a tiny pair overfits */
+
+static void test_overfit(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 1)) return;
+    hd_step_result r;
+    double first = 0, last = 0, rec_first = 0, rec_last = 0;
+    int steps = 0;
+    for (int i = 0; i < 300; i++) {
+        if (hd_trainer_step(&t, &r, NULL) != HD_OK) {
+            fprintf(stderr, "step: %s\n", hd_error());
+            test_failures++;
+            break;
+        }
+        if (i == 0) {
+            first = r.total;
+            rec_first = r.terms[HD_LOSS_REC];
+        }
+        last = r.total;
+        rec_last = r.terms[HD_LOSS_REC];
+        steps = i + 1;
+        if (last <= 0.2 * first && rec_last <= 0.6 * rec_first) break;
+    }
+    fprintf(stderr, "overfit: total loss %.4f -> %.4f, reconstruction %.4f -> %.4f in %d steps\n", first, last, rec_first,
+            rec_last, steps);
+    CHECK(last <= 0.2 * first);
+    CHECK(rec_last <= 0.6 * rec_first);
+    hd_trainer_free(&t);
+}
+
+/* ---- runs on a folder: resume, NaN, errors */
+
+static int write_dataset(const char *dir, int size)
+{
+    hd_pair_batch b;
+    if (hd_pair_batch_alloc(&b, 2, size) != HD_OK) return 0;
+    make_pair(&b, 0, 0);
+    make_pair(&b, 1, 1);
+    size_t HW = (size_t)size * size;
+    char path[256];
+    int ok = 1;
+    for (int k = 0; k < 4 && ok; k++) {
+        snprintf(path, sizeof path, "%s/person%d", dir, k / 2);
+        ok = hd_mkdirs(path) == HD_OK;
+        /* three images in person0 (from both pairs' lights), two in person1 */
+        for (int v = 0; v < 2 && ok; v++) {
+            int slot = (k % 2) * 2 + v;
+            hd_image img = {size, size, 3, b.image + (size_t)slot * 3 * HW};
+            hd_image mask = {size, size, 1, b.mask + (size_t)slot * HW};
+            hd_image nrm = {size, size, 3, b.coarse_normal + (size_t)slot * 3 * HW}, enc = {0};
+            snprintf(path, sizeof path, "%s/person%d/img%d.png", dir, k / 2, (k % 2) * 2 + v);
+            ok = ok && hd_image_write_png(path, &img, 8) == HD_OK;
+            snprintf(path, sizeof path, "%s/person%d/img%d.mask.png", dir, k / 2, (k % 2) * 2 + v);
+            ok = ok && hd_image_write_png(path, &mask, 8) == HD_OK;
+            snprintf(path, sizeof path, "%s/person%d/img%d.normal.png", dir, k / 2, (k % 2) * 2 + v);
+            ok = ok && hd_normal_encode(&nrm, &mask, &enc) == HD_OK && hd_image_write_png(path, &enc, 16) == HD_OK;
+            hd_image_free(&enc);
+        }
+    }
+    hd_pair_batch_free(&b);
+    if (!ok) fprintf(stderr, "writing the dataset: %s\n", hd_error());
+    return ok;
+}
+
+static void run_options(hd_train_options *o, const char *run, long iters)
+{
+    hd_train_defaults(o);
+    o->data_dir = "data";
+    o->run_dir = run;
+    o->iters = iters;
+    o->batch = 2;
+    o->size = 32;
+    o->width = 4;
+    o->every = 100; /* checkpoints at the end only: they are fsynced, and big (Adam moments) */
+    o->seed = 5;
+    o->quiet = 1;
+}
+
+/* The loss columns (everything but the seconds) of a loss.csv. */
+static char *loss_rows(const char *path)
+{
+    char *data = NULL;
+    size_t n;
+    if (hd_read_file(path, 1 << 20, &data, &n) != HD_OK) return NULL;
+    char *out = calloc(n + 1, 1), *o = out;
+    for (char *line = strtok(data, "\n"); line; line = strtok(NULL, "\n")) {
+        char *last = strrchr(line, ',');
+        if (last) *last = '\0';
+        o += sprintf(o, "%s\n", line);
+    }
+    free(data);
+    return out;
+}
+
+static void test_resume_and_errors(void)
+{
+    if (!write_dataset("data", 32)) {
+        test_failures++;
+        return;
+    }
+    hd_train_options o;
+    hd_train_result r;
+    run_options(&o, "straight", 6);
+    o.dump_grads = "dump.safetensors";
+    CHECK(hd_train(&o, &r) == HD_OK && r.iteration == 6);
+    /* the dump holds the first step: its batch, parameters, losses and gradients */
+    hd_safetensors st = {0};
+    CHECK(hd_safetensors_read("dump.safetensors", &st) == HD_OK);
+    const hd_tensor *img = hd_safetensors_find(&st, "batch.image"), *tot = hd_safetensors_find(&st, "loss.total");
+    CHECK(img && img->ndim == 4 && img->shape[0] == 4 && img->shape[1] == 3 && img->shape[2] == 32);
+    CHECK(hd_safetensors_find(&st, "grad.conv_in.weight") && hd_safetensors_find(&st, "grad.disc.out.bias") &&
+          hd_safetensors_find(&st, "l_net.fc.weight") && hd_safetensors_find(&st, "batch.coarse_normal") &&
+          hd_safetensors_find(&st, "loss.adv") && hd_safetensors_find(&st, "loss.disc"));
+    char *rows = loss_rows("straight/loss.csv");
+    if (tot && rows) {
+        char *line = strchr(rows, '\n') + 1; /* "1,TOTAL,..." */
+        CHECK_NEAR(strtod(strchr(line, ',') + 1, NULL), tot->data[0], 1e-5 * fabs(tot->data[0]));
+    }
+    free(rows);
+    hd_safetensors_free(&st);
+    run_options(&o, "resumed", 3);
+    CHECK(hd_train(&o, &r) == HD_OK && r.iteration == 3);
+    run_options(&o, "resumed", 6);
+    o.resume = 1;
+    o.batch = 0; /* taken from the checkpoint */
+    CHECK(hd_train(&o, &r) == HD_OK && r.iteration == 6);
+    char *a = loss_rows("straight/loss.csv"), *b = loss_rows("resumed/loss.csv");
+    CHECK(a && b && strcmp(a, b) == 0);
+    if (a && b && strcmp(a, b)) fprintf(stderr, "uninterrupted:\n%sresumed:\n%s", a, b);
+    CHECK(a && strlen(a) > 50);
+    free(a);
+    free(b);
+
+    /* the model written by the run decomposes */
+    hd_model *m = NULL;
+    CHECK(hd_model_load("straight/model.safetensors", &m) == HD_OK);
+    if (m) {
+        CHECK(hd_model_size(m) == 32 && hd_model_width(m) == 4);
+        hd_image img = {0};
+        CHECK(hd_image_read("data/person0/img0.png", &img) == HD_OK);
+        hd_decomposition d[2];
+        hd_image two[2] = {img, img};
+        CHECK(hd_model_decompose(m, two, 2, d) == HD_OK);
+        CHECK(d[0].albedo.width == 32 && d[0].shading.channels == 1 && d[1].normal.channels == 3);
+        float nn = d[0].normal.data[0] * d[0].normal.data[0] + d[0].normal.data[1024] * d[0].normal.data[1024] +
+                   d[0].normal.data[2048] * d[0].normal.data[2048];
+        CHECK_NEAR(nn, 1.0, 1e-3);
+        CHECK(memcmp(d[0].light, d[1].light, sizeof d[0].light) == 0);
+        hd_decomposition_free(&d[0]);
+        hd_decomposition_free(&d[1]);
+        hd_image_free(&img);
+        hd_model_free(m);
+    }
+
+    /* mismatched configurations */
+    run_options(&o, "resumed", 8);
+    o.resume = 1;
+    o.width = 8;
+    CHECK(hd_train(&o, &r) != HD_OK && strstr(hd_error(), "width") && strstr(hd_error(), "checkpoint.safetensors"));
+    run_options(&o, "resumed", 8);
+    o.resume = 1;
+    o.batch = 1;
+    CHECK(hd_train(&o, &r) != HD_OK && strstr(hd_error(), "batch"));
+    run_options(&o, "resumed", 8);
+    o.resume = 1;
+    o.stage = 2;
+    o.batch = 0;
+    CHECK(hd_train(&o, &r) != HD_OK && strstr(hd_error(), "stage"));
+
+    /* a model file is not a checkpoint; a checkpoint loads as a model */
+    hd_trainer t;
+    if (tiny_trainer(&t, 4, 32, 2)) {
+        CHECK(hd_trainer_load(&t, "straight/model.safetensors") != HD_OK && strstr(hd_error(), "model.safetensors"));
+        CHECK(hd_trainer_load(&t, "straight/checkpoint.safetensors") == HD_OK && t.iteration == 6);
+        hd_trainer_free(&t);
+    }
+    CHECK(hd_model_load("straight/checkpoint.safetensors", &m) == HD_OK);
+    hd_model_free(m);
+
+    /* broken files: truncated, missing tensor, wrong shape, not hdnet, missing */
+    char *data = NULL;
+    size_t n = 0;
+    CHECK(hd_read_file("straight/model.safetensors", 1 << 24, &data, &n) == HD_OK);
+    FILE *f = fopen("truncated.safetensors", "wb");
+    if (f && data) {
+        fwrite(data, 1, n / 2, f);
+        fclose(f);
+    }
+    free(data);
+    CHECK(hd_model_load("truncated.safetensors", &m) != HD_OK && strstr(hd_error(), "truncated.safetensors"));
+    CHECK(hd_model_load("missing.safetensors", &m) != HD_OK && strstr(hd_error(), "missing.safetensors"));
+    {
+        float w[32 * 3 * 9] = {0};
+        hd_tensor tt = {"conv_in.weight", 4, {32, 3, 3, 3}, w};
+        const char *k[3] = {"format", "format_version", "width"}, *v[3] = {"hdnet", "1", "4"};
+        const char *k2[4] = {"format", "format_version", "width", "size"}, *v2[4] = {"hdnet", "1", "4", "32"};
+        CHECK(hd_safetensors_write("nosize.safetensors", &tt, 1, k, v, 3) == HD_OK);
+        CHECK(hd_model_load("nosize.safetensors", &m) != HD_OK && strstr(hd_error(), "size"));
+        CHECK(hd_safetensors_write("partial.safetensors", &tt, 1, k2, v2, 4) == HD_OK);
+        CHECK(hd_model_load("partial.safetensors", &m) != HD_OK && strstr(hd_error(), "conv_in.bias") &&
+              strstr(hd_error(), "partial.safetensors"));
+        hd_tensor bad = {"conv_in.weight", 4, {32, 1, 3, 3}, w};
+        CHECK(hd_safetensors_write("shape.safetensors", &bad, 1, k2, v2, 4) == HD_OK);
+        CHECK(hd_model_load("shape.safetensors", &m) != HD_OK && strstr(hd_error(), "conv_in.weight") &&
+              strstr(hd_error(), "shape"));
+        CHECK(hd_safetensors_write("foreign.safetensors", &tt, 1, NULL, NULL, 0) == HD_OK);
+        CHECK(hd_model_load("foreign.safetensors", &m) != HD_OK && strstr(hd_error(), "not an hdnet model"));
+    }
+
+    /* a diverging run stops at a NaN or infinity, naming it, and keeps the last good checkpoint */
+    run_options(&o, "diverge", 50);
+    o.every = 1;
+    o.lr = 1e30f;
+    hd_status s = hd_train(&o, &r);
+    CHECK(s == HD_ERR_NUMERIC);
+    CHECK(strstr(hd_error(), "iteration") != NULL);
+    fprintf(stderr, "diverging run: %s\n", hd_error());
+    if (tiny_trainer(&t, 4, 32, 2)) {
+        CHECK(hd_trainer_load(&t, "diverge/checkpoint.safetensors") == HD_OK);
+        CHECK(t.iteration == r.iteration && t.iteration >= 1);
+        hd_trainer_free(&t);
+    }
+}
+
+int main(void)
+{
+    hd_set_threads(1); /* tiny shapes: threads only add overhead */
+    test_param_counts();
+    test_shade_grad();
+    double t0 = hd_seconds();
+    test_gradients();
+    fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
+    t0 = hd_seconds();
+    test_overfit();
+    fprintf(stderr, "overfit %.1f s\n", hd_seconds() - t0);
+    t0 = hd_seconds();
+    test_resume_and_errors();
+    fprintf(stderr, "runs %.1f s\n", hd_seconds() - t0);
+    return test_summary("test_model");
+}

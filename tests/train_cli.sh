@@ -1,0 +1,94 @@
+#!/bin/sh
+# train_cli.sh: `hdnet init` and `hdnet train` on a tiny synthetic set (made with `hdnet synth`):
+# the run folder's outputs, --init, exact resume through the CLI, stage 2, the time limit,
+# SIGINT, the gradient dump, and the exit codes of bad uses.
+set -u
+H="$HDNET"
+fail() { echo "train_cli: $*" >&2; exit 1; }
+# expect CODE COMMAND...: runs the command and checks its exit status
+expect() {
+    want=$1
+    shift
+    "$@" >out.txt 2>err.txt
+    got=$?
+    [ "$got" = "$want" ] || { cat out.txt err.txt >&2; fail "exit $got (expected $want): $*"; }
+}
+# the loss columns of a loss.csv (the last column, seconds, differs between runs)
+losses() { sed 's/,[^,]*$//' "$1"; }
+
+$H help | grep -q '^  synth ' || { echo "train_cli: no 'hdnet synth': skipped"; exit 0; }
+expect 0 $H synth data --subjects 2 --per-subject 3 --size 32 --seed 4 --threads 1
+T="--size 32 --width 4 --batch 1 --threads 1 --seed 3 -q"
+
+# init: a model file of the right size; bad uses are usage errors
+expect 0 $H init --width 4 --size 32 --seed 3 -o init.safetensors
+[ -s init.safetensors ] || fail "init wrote nothing"
+expect 2 $H init --width 4 --size 40 --seed 3 -o bad.safetensors
+expect 2 $H init --width 4 -o bad.safetensors
+expect 2 $H init --seed 1
+
+# a run: every output is there, one CSV row per iteration
+expect 0 $H train data -o run $T --iters 4 --every 2 --dump-grads dump.safetensors
+for f in model.safetensors checkpoint.safetensors loss.csv loss.png samples/iter_0000002.png samples/iter_0000004.png; do
+    [ -s "run/$f" ] || fail "run/$f missing"
+done
+[ "$(wc -l < run/loss.csv)" = 5 ] || fail "loss.csv should have a header and 4 rows"
+[ -s dump.safetensors ] || fail "no gradient dump"
+$H info dump.safetensors 2>&1 | grep -q "grad.conv_in.weight" || true
+
+# --init from `hdnet init` with the same seed starts exactly where --seed starts
+expect 0 $H train data -o run_init $T --iters 2 --every 2 --init init.safetensors
+[ "$(losses run_init/loss.csv)" = "$(losses run/loss.csv | head -3)" ] || fail "--init differs from a fresh start with the same seed"
+
+# resume: 4 + 2 iterations equal 6 straight
+expect 0 $H train data -o run $T --iters 6 --every 2 --resume
+expect 0 $H train data -o straight $T --iters 6 --every 2
+[ "$(losses run/loss.csv)" = "$(losses straight/loss.csv)" ] || fail "resumed losses differ from an uninterrupted run"
+
+# the trained model decomposes (when the command is there)
+if $H help | grep -q '^  decompose '; then
+    expect 0 $H decompose data/subject_0000/0000.png -m run/model.safetensors -o dec
+fi
+
+# stage 2 from the stage 1 model: phase 2a (L-Net) then 2b
+expect 0 $H train data -o run2 $T --stage 2 --init run/model.safetensors --iters 3 --lnet-iters 1 --every 3
+[ -s run2/checkpoint.safetensors ] || fail "stage 2 wrote no checkpoint"
+# a stage 1 checkpoint does not resume as stage 2
+expect 1 $H train data -o run $T --stage 2 --iters 8 --resume
+grep -q "stage" err.txt || fail "stage mismatch not explained: $(cat err.txt)"
+
+# the time limit stops after a checkpoint, exit 0
+expect 0 $H train data -o timed $T --iters 100000 --every 100000 --time-limit 0.0001
+grep -q "time limit" out.txt || fail "no time-limit message"
+[ -s timed/checkpoint.safetensors ] || fail "no checkpoint at the time limit"
+
+# SIGINT: checkpoint, exit 1, and the run resumes
+$H train data -o sig $T --iters 100000 --every 100000 >sig.out 2>sig.err &
+pid=$!
+i=0
+while [ "$(cat sig/loss.csv 2>/dev/null | wc -l)" -lt 3 ] && [ $i -lt 600 ]; do
+    sleep 0.1
+    i=$((i + 1))
+done
+kill -INT $pid
+wait $pid
+[ $? = 1 ] || fail "SIGINT should end with exit 1"
+[ -s sig/checkpoint.safetensors ] || fail "no checkpoint after SIGINT"
+done_iters=$(($(wc -l < sig/loss.csv) - 1))
+expect 0 $H train data -o sig $T --iters $((done_iters + 1)) --every 100000 --resume
+
+# bad uses
+expect 1 $H train no-such-folder -o x $T --iters 1
+grep -q "no-such-folder" err.txt || fail "missing folder not named: $(cat err.txt)"
+expect 1 $H train data -o empty-run $T --iters 2 --resume
+grep -q "checkpoint.safetensors" err.txt || fail "missing checkpoint not named: $(cat err.txt)"
+head -c 100 run/model.safetensors > torn.safetensors
+expect 1 $H train data -o y $T --iters 1 --init torn.safetensors
+grep -q "torn.safetensors" err.txt || fail "torn model not named: $(cat err.txt)"
+expect 1 $H train data -o y $T --width 8 --iters 1 --init run/model.safetensors
+grep -q "width" err.txt || fail "width mismatch not explained: $(cat err.txt)"
+expect 2 $H train data -o y --size 40
+expect 2 $H train data -o y --weights nope
+expect 2 $H train data
+expect 2 $H train data -o y --stage 3
+echo "train_cli: ok"
