@@ -35,7 +35,8 @@ exists() { for f in "$@"; do [ -s "$f" ] || fail "missing output $f"; done; }
 # png_size FILE: "W H" from the PNG header.
 png_size() { od -An -tu1 -j16 -N8 "$1" | awk '{print $3 * 256 + $4, $7 * 256 + $8}'; }
 
-if ! "$HDNET" help | grep -q '^  init '; then
+"$HDNET" help >help.txt || fail "$HDNET help failed"
+if ! grep -q '^  init ' help.txt; then
     echo "apply_cli: note: 'hdnet init' does not exist yet, skipped"
     exit 0
 fi
@@ -132,6 +133,15 @@ expect 1 "$HDNET" decompose nothere.png $M -o out4
 err_names nothere.png
 expect 1 "$HDNET" relight small.png $M --preset 1 -o no/such/dir/x.png
 err_names no/such/dir/x.png
+
+# without -m: the shipped model, or a clear error naming it while it is not there
+if [ -f "$here/../models/hdnet-synth.safetensors" ]; then
+    expect 0 "$HDNET" delight small.png -o d_default.png
+    exists d_default.png
+else
+    expect 1 "$HDNET" delight small.png -o x.png
+    err_names hdnet-synth.safetensors
+fi
 
 # the broken-file corpus (tests/data/broken): every image refused by decompose (one run, each
 # named, nothing written), every checkpoint by -m, every light file by --light
