@@ -115,12 +115,16 @@ struct hd_tfjs_graph {
 
 float hd_half_to_float(uint16_t h)
 {
-    int sign = (h >> 15) & 1, exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff;
+    uint32_t sign = (uint32_t)(h >> 15) << 31, exponent = (h >> 10) & 0x1f, mantissa = h & 0x3ff, bits;
     float v;
-    if (exponent == 0) v = ldexpf((float)mantissa, -24);                      /* m * 2^-24 */
-    else if (exponent == 31) v = mantissa ? NAN : INFINITY;
-    else v = ldexpf((float)(mantissa | 0x400), exponent - 25);               /* (1024 + m) 2^(e-25) */
-    return sign ? -v : v;
+    if (exponent == 0) { /* zero or subnormal: m * 2^-24, exact in float */
+        v = (float)mantissa * 5.9604644775390625e-08f;
+        return sign ? -v : v;
+    }
+    if (exponent == 31) bits = sign | 0x7f800000u | mantissa << 13;          /* infinity, NaN */
+    else bits = sign | (exponent + 127 - 15) << 23 | mantissa << 13;         /* rebias 15 -> 127 */
+    memcpy(&v, &bits, sizeof v);
+    return v;
 }
 
 static char *dup_string(const char *s)
