@@ -121,6 +121,10 @@ int cmd_train(int argc, char **argv)
         if (s == HD_ERR_NUMERIC) fprintf(stderr, "hdnet train: stopped; the last good checkpoint in %s is kept\n", out);
         return HD_EXIT_FAIL;
     }
+    if (r.steps == 0) {
+        printf("nothing to do: %s is at iteration %ld (--iters %d)\n", out, r.iteration, iters);
+        return HD_EXIT_OK;
+    }
     const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
     printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f, "
            "disc %.5f); %s/checkpoint.safetensors written\n",

@@ -878,6 +878,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         if (s != HD_OK) goto done; /* the last good checkpoint stays as it is */
         r->last = res;
         r->iteration = t.iteration;
+        r->steps++;
         float row[HIST_COLS];
         for (int k = 0; k < HD_LOSS_TERMS; k++) row[k] = (float)res.terms[k];
         row[HD_LOSS_TERMS] = (float)res.total;

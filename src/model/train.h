@@ -95,6 +95,7 @@ typedef struct hd_train_options {
 typedef struct hd_train_result {
     hd_train_end end;
     long iteration;
+    long steps; /* taken by this call (0 when a resumed run was already done) */
     hd_step_result last;
 } hd_train_result;
 
