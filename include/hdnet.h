@@ -203,8 +203,11 @@ typedef struct hd_decomposition {
     float light[HD_SH_COEFFS];
 } hd_decomposition;
 
-/* Decomposes `count` aligned face images (3 channels, any size: each is resized to the model
- * size). Results are at the model size; out[i] is filled for images[i]. */
+/* Decomposes `count` aligned face images (1-4 channels are converted to RGB; any size: each is
+ * resized to the model size), in batches of up to 4. Results are at the model size; out[i] is
+ * filled for images[i] (free each with hd_decomposition_free); on failure nothing is left
+ * allocated. The first call allocates the model's working memory; one model must not be used by
+ * two threads at once. */
 hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count, hd_decomposition *out);
 void hd_decomposition_free(hd_decomposition *d);
 
