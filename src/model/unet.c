@@ -5,7 +5,13 @@
  *
  * Letters: B batch, H, W input size, w width, cin / cout channels; level l has size H >> l.
  * Activations and their gradients live in one arena carved at creation; backward zeroes each
- * gradient buffer just before the first layer that accumulates into it.
+ * gradient buffer that several layers add into just before the first of them.
+ *
+ * Layout: with oneDNN and a width that is a multiple of 16, every tensor inside the net is kept in
+ * oneDNN's blocked layout nc16 (nn.h), so that no convolution reorders its input or output; the
+ * concatenations are then copies of whole channel blocks (the net's input, padded to 16 channels,
+ * goes last, where the padding of dec1a's input belongs). Only the net's input, output and
+ * bottleneck are converted from and to plain NCHW. Otherwise everything is plain NCHW.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,14 +42,17 @@ static void layer_shape(int l, int cin, int cout, int w, int *ci, int *co, int *
     }
 }
 
-/* A tensor: activation x and its gradient g, (B, c, h, w). */
+/* A tensor: activation x and its gradient g, (B, c, h, w); cp = c, or c padded to 16 in nc16. */
 typedef struct tensor {
     float *x, *g;
-    int c, h, w;
+    int c, cp, h, w;
 } tensor;
 
 struct hd_unet {
     int cin, cout, width, B, H, W;
+    int nc16;       /* tensors in the blocked layout */
+    float *bneck;   /* the bottleneck in plain NCHW (B, w, H/32, W/32) */
+    float *bneck_g; /* nc16: dbottleneck converted */
     hd_conv3x3 *conv[HD_UNET_LAYERS];
     const float *wt[HD_UNET_LAYERS], *bias[HD_UNET_LAYERS]; /* bound parameters */
     float *dwt[HD_UNET_LAYERS], *dbias[HD_UNET_LAYERS];     /* bound gradients, or NULL */
@@ -91,11 +100,12 @@ double hd_unet_macs(int cin, int cout, int width, int H, int W)
 }
 
 /* Carves x and g of t from the arena (a first pass with a NULL base only counts). */
-static void carve(hd_arena *a, size_t *total, tensor *t, int B, int c, int h, int w)
+static void carve(hd_arena *a, size_t *total, tensor *t, int B, int c, int h, int w, int nc16)
 {
-    size_t n = (size_t)B * c * h * w;
+    int cp = nc16 ? hd_nc16_channels(c) : c;
+    size_t n = (size_t)B * cp * h * w;
     n = (n + 15) & ~(size_t)15; /* keep 64-byte alignment */
-    t->c = c, t->h = h, t->w = w;
+    t->c = c, t->cp = cp, t->h = h, t->w = w;
     if (a->base) {
         t->x = hd_arena_floats(a, n);
         t->g = hd_arena_floats(a, n);
@@ -106,24 +116,30 @@ static void carve(hd_arena *a, size_t *total, tensor *t, int B, int c, int h, in
 static void carve_all(hd_unet *u, hd_arena *a, size_t *total)
 {
     int B = u->B, H = u->H, W = u->W, w = u->width;
-    carve(a, total, &u->inp, B, u->cin, H, W);
+    carve(a, total, &u->inp, B, u->cin, H, W, u->nc16);
     for (int l = 0; l <= 6; l++) {
         int lev = l == 0 ? 0 : l - 1; /* enc0, enc1 at level 0, enc l at level l - 1 */
-        carve(a, total, &u->e[l], B, w, H >> lev, W >> lev);
+        carve(a, total, &u->e[l], B, w, H >> lev, W >> lev, u->nc16);
     }
-    for (int l = 1; l <= 5; l++) carve(a, total, &u->p[l], B, w, H >> l, W >> l);
+    for (int l = 1; l <= 5; l++) carve(a, total, &u->p[l], B, w, H >> l, W >> l, u->nc16);
     for (int l = 1; l <= 5; l++) {
         /* decoder level l works at level l - 1 (cat[5] at H/16, cat[1] at H) */
         int lev = l - 1, up = l == 5 ? w : 2 * w, skip = l == 1 ? u->cin : w;
-        carve(a, total, &u->cat[l], B, up + skip, H >> lev, W >> lev);
+        carve(a, total, &u->cat[l], B, up + skip, H >> lev, W >> lev, u->nc16);
         if (l >= 2) {
-            carve(a, total, &u->da[l], B, 2 * w, H >> lev, W >> lev);
-            carve(a, total, &u->dbk[l], B, 2 * w, H >> lev, W >> lev);
+            carve(a, total, &u->da[l], B, 2 * w, H >> lev, W >> lev, u->nc16);
+            carve(a, total, &u->dbk[l], B, 2 * w, H >> lev, W >> lev, u->nc16);
         }
     }
-    carve(a, total, &u->d1a, B, 64, H, W);
-    carve(a, total, &u->d1b, B, 32, H, W);
-    carve(a, total, &u->out, B, u->cout, H, W);
+    carve(a, total, &u->d1a, B, 64, H, W, u->nc16);
+    carve(a, total, &u->d1b, B, 32, H, W, u->nc16);
+    carve(a, total, &u->out, B, u->cout, H, W, u->nc16);
+    size_t nb = (size_t)B * hd_nc16_channels(w) * (H / 32) * (W / 32);
+    if (a->base) {
+        u->bneck = hd_arena_floats(a, nb);
+        u->bneck_g = hd_arena_floats(a, nb);
+    }
+    *total += 2 * ((nb + 15) & ~(size_t)15) * sizeof(float);
 }
 
 hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int H, int W, hd_conv_path path)
@@ -136,11 +152,23 @@ hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int
     if (!u) return HD_ERR_NOMEM;
     u->cin = cin, u->cout = cout, u->width = width, u->B = B, u->H = H, u->W = W;
     hd_status st = HD_OK;
+#ifdef HD_HAVE_DNNL
+    u->nc16 = path == HD_CONV_AUTO && width % HD_NC16_BLOCK == 0;
+#endif
     for (int l = 0; l < HD_UNET_LAYERS && st == HD_OK; l++) {
         int ci, co, lev;
         layer_shape(l, cin, cout, width, &ci, &co, &lev);
-        st = hd_conv3x3_plan(&u->conv[l], B, ci, H >> lev, W >> lev, co, 1,
-                             l == DEC1C ? HD_ACT_NONE : HD_ACT_LRELU, 0.1f, path);
+        hd_act act = l == DEC1C ? HD_ACT_NONE : HD_ACT_LRELU;
+        if (u->nc16) {
+            st = hd_conv3x3_plan_nc16(&u->conv[l], B, ci, H >> lev, W >> lev, co, 1, act, 0.1f);
+            if (st != HD_OK && l == 0) { /* oneDNN refused: the plain layout */
+                hd_clear_error();
+                u->nc16 = 0;
+                st = HD_OK;
+            }
+            if (u->nc16) continue;
+        }
+        st = hd_conv3x3_plan(&u->conv[l], B, ci, H >> lev, W >> lev, co, 1, act, 0.1f, path);
     }
     size_t total = 0;
     hd_arena none = {0};
@@ -183,27 +211,29 @@ void hd_unet_bind(hd_unet *u, const float *params, float *grads)
 
 size_t hd_unet_memory(const hd_unet *u) { return u->arena.size; }
 
-const float *hd_unet_bottleneck(const hd_unet *u) { return u->e[6].x; }
+const float *hd_unet_bottleneck(const hd_unet *u) { return u->nc16 ? u->bneck : u->e[6].x; }
 
-static size_t numel(const tensor *t) { return (size_t)t->c * t->h * t->w; } /* per image */
+static size_t numel(const tensor *t) { return (size_t)t->cp * t->h * t->w; } /* per image */
 
 /* cat (per image: [up(src), skip]) = upsample2(src) then skip, image by image. */
-static void up_concat(tensor *cat, const tensor *src, const tensor *skip, int B)
+static void up_concat(const hd_unet *u, tensor *cat, const tensor *src, const tensor *skip, int B)
 {
     size_t nc = numel(cat), ns = numel(src), nk = numel(skip), nu = nc - nk;
     for (int n = 0; n < B; n++) {
-        hd_upsample2_forward(cat->x + n * nc, src->x + n * ns, 1, src->c, src->h, src->w);
+        if (u->nc16) hd_upsample2_nc16_forward(cat->x + n * nc, src->x + n * ns, 1, src->c, src->h, src->w);
+        else hd_upsample2_forward(cat->x + n * nc, src->x + n * ns, 1, src->c, src->h, src->w);
         memcpy(cat->x + n * nc + nu, skip->x + n * nk, nk * sizeof(float));
     }
 }
 
 /* Backward of up_concat: src->g += upsample2^T(dcat[:up]), skip->g += dcat[up:] (skip->g may be
  * NULL when the skip is the net's input and no input gradient is wanted). */
-static void up_concat_backward(const tensor *cat, tensor *src, float *skip_g, size_t nk, int B)
+static void up_concat_backward(const hd_unet *u, const tensor *cat, tensor *src, float *skip_g, size_t nk, int B)
 {
     size_t nc = numel(cat), ns = numel(src), nu = nc - nk;
     for (int n = 0; n < B; n++) {
-        hd_upsample2_backward(src->g + n * ns, cat->g + n * nc, 1, src->c, src->h, src->w);
+        if (u->nc16) hd_upsample2_nc16_backward(src->g + n * ns, cat->g + n * nc, 1, src->c, src->h, src->w);
+        else hd_upsample2_backward(src->g + n * ns, cat->g + n * nc, 1, src->c, src->h, src->w);
         if (skip_g) {
             const float *g = cat->g + n * nc + nu;
             float *d = skip_g + n * nk;
@@ -220,77 +250,105 @@ static void conv_fwd(hd_unet *u, int l, tensor *out, const tensor *in)
 static void zero_grad(tensor *t, int B) { memset(t->g, 0, (size_t)B * numel(t) * sizeof(float)); }
 
 /* Backward of conv l: out->g (the gradient at its output, turned in place into the gradient
- * before the activation) flows into in->g (zeroed first when `fresh`) and the bound gradients. */
+ * before the activation) flows into in->g (overwritten when `fresh`, else added to) and the bound
+ * gradients. */
 static void conv_bwd(hd_unet *u, int l, tensor *out, tensor *in, int fresh)
 {
-    if (fresh) zero_grad(in, u->B);
-    hd_conv3x3_backward(u->conv[l], in->g, u->dwt[l], u->dbias[l], out->g, out->x, in->x, u->wt[l]);
+    if (fresh)
+        hd_conv3x3_backward_into(u->conv[l], in->g, u->dwt[l], u->dbias[l], out->g, out->x, in->x, u->wt[l]);
+    else
+        hd_conv3x3_backward(u->conv[l], in->g, u->dwt[l], u->dbias[l], out->g, out->x, in->x, u->wt[l]);
+}
+
+static void maxpool_fwd(const hd_unet *u, tensor *out, const tensor *in)
+{
+    if (u->nc16) hd_maxpool2_nc16_forward(out->x, in->x, u->B, in->c, in->h, in->w);
+    else hd_maxpool2_forward(out->x, in->x, u->B, in->c, in->h, in->w);
+}
+
+static void maxpool_bwd(const hd_unet *u, tensor *out, tensor *in)
+{
+    zero_grad(in, u->B);
+    if (u->nc16) hd_maxpool2_nc16_backward(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
+    else hd_maxpool2_backward(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
 }
 
 void hd_unet_forward(hd_unet *u, const float *inp, float *out)
 {
     int B = u->B;
-    memcpy(u->inp.x, inp, (size_t)B * numel(&u->inp) * sizeof(float));
+    int HW = u->H * u->W;
+    if (u->nc16) hd_nc16_from_plain(u->inp.x, inp, B, u->cin, HW);
+    else memcpy(u->inp.x, inp, (size_t)B * numel(&u->inp) * sizeof(float));
     conv_fwd(u, ENC0, &u->e[0], &u->inp);
     conv_fwd(u, ENC1, &u->e[1], &u->e[0]);
-    hd_maxpool2_forward(u->p[1].x, u->e[1].x, B, u->width, u->e[1].h, u->e[1].w);
+    maxpool_fwd(u, &u->p[1], &u->e[1]);
     for (int l = 2; l <= 6; l++) {
         conv_fwd(u, ENC0 + l, &u->e[l], &u->p[l - 1]);
-        if (l <= 5) hd_maxpool2_forward(u->p[l].x, u->e[l].x, B, u->width, u->e[l].h, u->e[l].w);
+        if (l <= 5) maxpool_fwd(u, &u->p[l], &u->e[l]);
     }
+    if (u->nc16) hd_nc16_to_plain(u->bneck, u->e[6].x, B, u->width, u->e[6].h * u->e[6].w, 0);
     /* decoder level 5 (size H/16): up(e6) ++ p4; levels 4..2: up(dbk[l+1]) ++ p[l-1] */
-    up_concat(&u->cat[5], &u->e[6], &u->p[4], B);
+    up_concat(u, &u->cat[5], &u->e[6], &u->p[4], B);
     conv_fwd(u, DEC5A, &u->da[5], &u->cat[5]);
     conv_fwd(u, DEC5B, &u->dbk[5], &u->da[5]);
     for (int l = 4; l >= 2; l--) {
         int la = DEC5A + 2 * (5 - l);
-        up_concat(&u->cat[l], &u->dbk[l + 1], &u->p[l - 1], B);
+        up_concat(u, &u->cat[l], &u->dbk[l + 1], &u->p[l - 1], B);
         conv_fwd(u, la, &u->da[l], &u->cat[l]);
         conv_fwd(u, la + 1, &u->dbk[l], &u->da[l]);
     }
-    up_concat(&u->cat[1], &u->dbk[2], &u->inp, B);
+    up_concat(u, &u->cat[1], &u->dbk[2], &u->inp, B);
     conv_fwd(u, DEC1A, &u->d1a, &u->cat[1]);
     conv_fwd(u, DEC1B, &u->d1b, &u->d1a);
     conv_fwd(u, DEC1C, &u->out, &u->d1b);
-    memcpy(out, u->out.x, (size_t)B * numel(&u->out) * sizeof(float));
+    if (u->nc16) hd_nc16_to_plain(out, u->out.x, B, u->cout, HW, 0);
+    else memcpy(out, u->out.x, (size_t)B * numel(&u->out) * sizeof(float));
 }
 
 void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, float *dinp)
 {
-    int B = u->B;
-    memcpy(u->out.g, dout, (size_t)B * numel(&u->out) * sizeof(float));
+    int B = u->B, HW = u->H * u->W;
+    if (u->nc16) hd_nc16_from_plain(u->out.g, dout, B, u->cout, HW);
+    else memcpy(u->out.g, dout, (size_t)B * numel(&u->out) * sizeof(float));
+    /* nc16: the input's gradient is gathered in inp.g and converted at the end */
+    float *dinp_net = dinp && u->nc16 ? u->inp.g : dinp;
+    if (dinp && u->nc16) zero_grad(&u->inp, B);
     conv_bwd(u, DEC1C, &u->out, &u->d1b, 1);
     conv_bwd(u, DEC1B, &u->d1b, &u->d1a, 1);
     conv_bwd(u, DEC1A, &u->d1a, &u->cat[1], 1);
     zero_grad(&u->dbk[2], B);
-    up_concat_backward(&u->cat[1], &u->dbk[2], dinp, numel(&u->inp), B);
+    up_concat_backward(u, &u->cat[1], &u->dbk[2], dinp_net, numel(&u->inp), B);
     for (int l = 2; l <= 4; l++) {
         int la = DEC5A + 2 * (5 - l);
         conv_bwd(u, la + 1, &u->dbk[l], &u->da[l], 1);
         conv_bwd(u, la, &u->da[l], &u->cat[l], 1);
         zero_grad(&u->dbk[l + 1], B);
         zero_grad(&u->p[l - 1], B);
-        up_concat_backward(&u->cat[l], &u->dbk[l + 1], u->p[l - 1].g, numel(&u->p[l - 1]), B);
+        up_concat_backward(u, &u->cat[l], &u->dbk[l + 1], u->p[l - 1].g, numel(&u->p[l - 1]), B);
     }
     conv_bwd(u, DEC5B, &u->dbk[5], &u->da[5], 1);
     conv_bwd(u, DEC5A, &u->da[5], &u->cat[5], 1);
     zero_grad(&u->e[6], B);
     zero_grad(&u->p[4], B);
-    up_concat_backward(&u->cat[5], &u->e[6], u->p[4].g, numel(&u->p[4]), B);
+    up_concat_backward(u, &u->cat[5], &u->e[6], u->p[4].g, numel(&u->p[4]), B);
     if (dbottleneck) {
         size_t n = (size_t)B * numel(&u->e[6]);
-        for (size_t i = 0; i < n; i++) u->e[6].g[i] += dbottleneck[i];
+        const float *g = dbottleneck;
+        if (u->nc16) {
+            hd_nc16_from_plain(u->bneck_g, dbottleneck, B, u->width, u->e[6].h * u->e[6].w);
+            g = u->bneck_g;
+        }
+        for (size_t i = 0; i < n; i++) u->e[6].g[i] += g[i];
     }
     /* encoder: enc l reads p[l-1] (which already holds its skip gradient, except p[5]) */
     conv_bwd(u, ENC6, &u->e[6], &u->p[5], 1);
     for (int l = 5; l >= 2; l--) {
-        zero_grad(&u->e[l], B);
-        hd_maxpool2_backward(u->e[l].g, u->p[l].g, u->e[l].x, B, u->width, u->e[l].h, u->e[l].w);
+        maxpool_bwd(u, &u->p[l], &u->e[l]);
         conv_bwd(u, ENC0 + l, &u->e[l], &u->p[l - 1], 0);
     }
-    zero_grad(&u->e[1], B);
-    hd_maxpool2_backward(u->e[1].g, u->p[1].g, u->e[1].x, B, u->width, u->e[1].h, u->e[1].w);
+    maxpool_bwd(u, &u->p[1], &u->e[1]);
     conv_bwd(u, ENC1, &u->e[1], &u->e[0], 1);
-    hd_conv3x3_backward(u->conv[ENC0], dinp, u->dwt[ENC0], u->dbias[ENC0], u->e[0].g, u->e[0].x,
+    hd_conv3x3_backward(u->conv[ENC0], dinp_net, u->dwt[ENC0], u->dbias[ENC0], u->e[0].g, u->e[0].x,
                         u->inp.x, u->wt[ENC0]);
+    if (dinp && u->nc16) hd_nc16_to_plain(dinp, u->inp.g, B, u->cin, HW, 1);
 }

@@ -22,20 +22,31 @@
 int hd_conv3x3_out_h(const hd_conv3x3 *p) { return p->Ho; }
 int hd_conv3x3_out_w(const hd_conv3x3 *p) { return p->Wo; }
 
+/* Fills the shape fields of a new plan; NULL (with reason) on a bad shape. */
+static hd_conv3x3 *new_plan(int B, int C, int H, int W, int OC, int stride, hd_act act, float slope, int nc16)
+{
+    if (B < 1 || C < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2)) {
+        hd_fail(HD_ERR_ARG, "conv3x3: bad shape B=%d C=%d H=%d W=%d OC=%d stride=%d", B, C, H, W, OC, stride);
+        return NULL;
+    }
+    hd_conv3x3 *p = hd_calloc(1, sizeof *p);
+    if (!p) return NULL;
+    p->B = B, p->C = C, p->H = H, p->W = W, p->OC = OC, p->stride = stride;
+    p->act = act, p->slope = slope, p->nc16 = nc16;
+    p->Ho = (H - 1) / stride + 1;
+    p->Wo = (W - 1) / stride + 1;
+    p->macs = 9.0 * B * C * OC * p->Ho * p->Wo;
+    p->in_n = (size_t)B * (nc16 ? hd_nc16_channels(C) : C) * H * W;
+    p->out_n = (size_t)B * (nc16 ? hd_nc16_channels(OC) : OC) * p->Ho * p->Wo;
+    return p;
+}
+
 hd_status hd_conv3x3_plan(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
                           hd_act act, float slope, hd_conv_path path)
 {
     *plan = NULL;
-    if (B < 1 || C < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2))
-        return hd_fail(HD_ERR_ARG, "conv3x3: bad shape B=%d C=%d H=%d W=%d OC=%d stride=%d", B, C, H,
-                       W, OC, stride);
-    hd_conv3x3 *p = hd_calloc(1, sizeof *p);
-    if (!p) return HD_ERR_NOMEM;
-    p->B = B, p->C = C, p->H = H, p->W = W, p->OC = OC, p->stride = stride;
-    p->act = act, p->slope = slope;
-    p->Ho = (H - 1) / stride + 1;
-    p->Wo = (W - 1) / stride + 1;
-    p->macs = 9.0 * B * C * OC * p->Ho * p->Wo;
+    hd_conv3x3 *p = new_plan(B, C, H, W, OC, stride, act, slope, 0);
+    if (!p) return C < 1 || B < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2) ? HD_ERR_ARG : HD_ERR_NOMEM;
     hd_status st = HD_OK;
 #ifdef HD_HAVE_DNNL
     if (path == HD_CONV_AUTO) {
@@ -67,6 +78,27 @@ hd_status hd_conv3x3_plan(hd_conv3x3 **plan, int B, int C, int H, int W, int OC,
     }
     *plan = p;
     return HD_OK;
+}
+
+hd_status hd_conv3x3_plan_nc16(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
+                               hd_act act, float slope)
+{
+    *plan = NULL;
+#ifdef HD_HAVE_DNNL
+    hd_conv3x3 *p = new_plan(B, C, H, W, OC, stride, act, slope, 1);
+    if (!p) return C < 1 || B < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2) ? HD_ERR_ARG : HD_ERR_NOMEM;
+    hd_status st = hd_conv3x3_dnnl_plan(p);
+    if (st != HD_OK) {
+        hd_conv3x3_free(p);
+        return st;
+    }
+    p->path = HD_CONV_AUTO;
+    *plan = p;
+    return HD_OK;
+#else
+    (void)B, (void)C, (void)H, (void)W, (void)OC, (void)stride, (void)act, (void)slope;
+    return hd_fail(HD_ERR_ARG, "conv3x3: the nc16 layout needs oneDNN (built without it)");
+#endif
 }
 
 void hd_conv3x3_free(hd_conv3x3 *p)
@@ -298,20 +330,21 @@ void hd_conv3x3_forward(hd_conv3x3 *p, float *out, const float *inp, const float
     if (p->path == HD_CONV_NAIVE) naive_forward(p, out, inp, w, b);
     else portable_forward(p, out, inp, w, b);
     if (p->act == HD_ACT_LRELU) {
-        size_t n = (size_t)p->B * p->OC * p->Ho * p->Wo;
+        size_t n = p->out_n;
         float sl = p->slope;
 #pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
         for (size_t i = 0; i < n; i++) out[i] = out[i] > 0.0f ? out[i] : sl * out[i];
     }
 }
 
-void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
-                         const float *out, const float *inp, const float *w)
+/* Shared by both backward entries: overwrite says whether dinp is overwritten. */
+static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout, const float *out,
+                     const float *inp, const float *w, int overwrite)
 {
     /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
      * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
     if (p->act == HD_ACT_LRELU) {
-        size_t n = (size_t)p->B * p->OC * p->Ho * p->Wo;
+        size_t n = p->out_n;
         float sl = p->slope;
 #pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
         for (size_t i = 0; i < n; i++)
@@ -319,10 +352,23 @@ void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float
     }
 #ifdef HD_HAVE_DNNL
     if (p->dnnl) {
-        hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w);
+        hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);
         return;
     }
 #endif
+    if (dinp && overwrite) memset(dinp, 0, p->in_n * sizeof(float));
     if (p->path == HD_CONV_NAIVE) naive_backward(p, dinp, dw, db, dout, inp, w);
     else portable_backward(p, dinp, dw, db, dout, inp, w);
+}
+
+void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
+                         const float *out, const float *inp, const float *w)
+{
+    backward(p, dinp, dw, db, dout, out, inp, w, 0);
+}
+
+void hd_conv3x3_backward_into(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
+                              const float *out, const float *inp, const float *w)
+{
+    backward(p, dinp, dw, db, dout, out, inp, w, 1);
 }

@@ -27,6 +27,7 @@ typedef struct dn {
     view bd_ddst, bd_w, bd_dsrc;      /* backward data: dsrc reorders with a sum into dinp */
     view bw_src, bw_ddst, bw_dw;      /* backward weights: dw reorders with a sum into dw */
     dnnl_memory_t bias, dbias, scratch;
+    dnnl_memory_t dsrc_tmp; /* nc16: backward data's output before it is added into dinp */
     float *zero_bias, *dbias_buf;
     const float *last_src; /* the input of the last forward, held by src.prim */
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
@@ -142,9 +143,11 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     DN(dnnl_memory_desc_init_by_tag(&w_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
     DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, dnnl_format_tag_any));
     DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
-    DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, dnnl_nchw));
+    dnnl_format_tag_t act_tag = p->nc16 ? dnnl_nChw16c : dnnl_nchw;
+    DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, act_tag));
     DN(dnnl_memory_desc_init_by_tag(&w_user, 4, wdims, dnnl_f32, dnnl_oihw));
-    DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, dnnl_nchw));
+    DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, act_tag));
+    if (p->nc16) s_any = s_user, d_any = d_user; /* no reorders of activations */
 
     /* forward: dst = act(conv(src, w) + b) */
     dnnl_convolution_desc_t fdesc, ddesc, wdesc;
@@ -172,7 +175,8 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     if (scratch_size(dpd) > scratch) scratch = scratch_size(dpd);
     DN(make_view(&d->bd_ddst, &d_user, qmd(dpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
     DN(make_view(&d->bd_w, &w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
-    DN(make_view(&d->bd_dsrc, &s_user, qmd(dpd, dnnl_query_diff_src_md), 0, 1, &scratch));
+    DN(make_view(&d->bd_dsrc, &s_user, qmd(dpd, dnnl_query_diff_src_md), 0, !p->nc16, &scratch));
+    if (p->nc16) DN(dnnl_memory_create(&d->dsrc_tmp, &s_user, engine, DNNL_MEMORY_ALLOCATE));
 
     /* backward weights: dw = ddst x src, db = sum ddst */
     DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_any, &w_any, &b_md,
@@ -228,6 +232,7 @@ void hd_conv3x3_dnnl_free(hd_conv3x3 *p)
     if (d->bias) dnnl_memory_destroy(d->bias);
     if (d->dbias) dnnl_memory_destroy(d->dbias);
     if (d->scratch) dnnl_memory_destroy(d->scratch);
+    if (d->dsrc_tmp) dnnl_memory_destroy(d->dsrc_tmp);
     free(d->zero_bias);
     free(d->dbias_buf);
     free(d);
@@ -264,17 +269,35 @@ void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const 
 }
 
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
-                              const float *inp, const float *w)
+                              const float *inp, const float *w, int overwrite)
 {
     dn *d = p->dnnl;
     if (dinp) {
-        /* dsrc = conv^T(ddst, w); dinp += dsrc (a reorder with a sum post-op) */
-        dnnl_memory_t ddst = view_in(d, &d->bd_ddst, dout), wt = view_in(d, &d->bd_w, w);
+        /* dsrc = conv^T(ddst, w); then dinp = dsrc or dinp += dsrc */
+        dnnl_memory_t ddst = view_in(d, &d->bd_ddst, dout), wt = view_in(d, &d->bd_w, w), dsrc;
+        if (p->nc16) {
+            dsrc = overwrite ? d->bd_dsrc.user : d->dsrc_tmp;
+            if (overwrite) dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
+        } else {
+            dsrc = d->bd_dsrc.prim;
+            if (overwrite) memset(dinp, 0, p->in_n * sizeof(float));
+        }
         dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, ddst}, {DNNL_ARG_WEIGHTS, wt},
-                                   {DNNL_ARG_DIFF_SRC, d->bd_dsrc.prim}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
+                                   {DNNL_ARG_DIFF_SRC, dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
         dnnl_primitive_execute(d->bwd_data, stream, 4, args);
-        dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
-        run_reorder(d, d->bd_dsrc.reorder, d->bd_dsrc.prim, d->bd_dsrc.user);
+        if (!p->nc16) {
+            /* a reorder with a sum post-op: dinp += dsrc */
+            dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
+            run_reorder(d, d->bd_dsrc.reorder, d->bd_dsrc.prim, d->bd_dsrc.user);
+        } else if (!overwrite) {
+            dnnl_stream_wait(stream);
+            void *h = NULL;
+            dnnl_memory_get_data_handle(d->dsrc_tmp, &h);
+            const float *t = h;
+            size_t n = p->in_n;
+#pragma omp parallel for schedule(static) if (n > 262144)
+            for (size_t i = 0; i < n; i++) dinp[i] += t[i];
+        }
     }
     if (dw || db) {
         /* dw = sum ddst x src, db = sum ddst; both accumulate */

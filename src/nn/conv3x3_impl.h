@@ -12,6 +12,8 @@ struct hd_conv3x3 {
     hd_act act;
     float slope;
     hd_conv_path path; /* the path actually taken: AUTO means oneDNN */
+    int nc16;          /* tensors in the blocked layout nc16 (oneDNN only) */
+    size_t in_n, out_n; /* floats of inp and out, with nc16 padding */
     int band_rows;     /* portable: output rows per im2col band */
     float *col;        /* portable: (9 C, band_rows Wo) */
     void *dnnl;        /* oneDNN state, or NULL */
@@ -22,9 +24,10 @@ struct hd_conv3x3 {
 hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p);
 void hd_conv3x3_dnnl_free(hd_conv3x3 *p);
 void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b);
-/* dout already holds the gradient before the activation. */
+/* dout already holds the gradient before the activation; dinp is overwritten when `overwrite`,
+ * otherwise accumulated into. */
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
-                              const float *inp, const float *w);
+                              const float *inp, const float *w, int overwrite);
 #endif
 
 #endif /* HD_CONV3X3_IMPL_H */

@@ -37,6 +37,28 @@ void hd_conv3x3_forward(hd_conv3x3 *plan, float *out, const float *inp, const fl
  * forward: out = act(pre); dinp (may be NULL), dw, db accumulate. */
 void hd_conv3x3_backward(hd_conv3x3 *plan, float *dinp, float *dw, float *db, float *dout,
                          const float *out, const float *inp, const float *w);
+/* As hd_conv3x3_backward, but dinp (not NULL) is overwritten instead of accumulated into (saves
+ * zeroing it first). dw, db still accumulate. */
+void hd_conv3x3_backward_into(hd_conv3x3 *plan, float *dinp, float *dw, float *db, float *dout,
+                              const float *out, const float *inp, const float *w);
+
+/* ---- the blocked channel layout of the oneDNN path ("nc16", oneDNN's nChw16c): a tensor
+ * (B, C, H, W) is stored as (B, ceil(C / 16), H, W, 16), channel c at block c / 16, lane c % 16;
+ * the lanes past C are zero. Layers of the Common-Net run in it end to end, without reorders. */
+#define HD_NC16_BLOCK 16
+static inline int hd_nc16_channels(int C) { return (C + 15) / 16 * 16; }
+/* A convolution plan whose inp, out, dinp and dout are nc16 (weights and bias stay OIHW / (OC));
+ * only with oneDNN (HD_ERR_ARG otherwise). */
+hd_status hd_conv3x3_plan_nc16(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
+                               hd_act act, float slope);
+/* Layout conversions: plain (B, C, HW) <-> nc16; to_plain accumulates when `accumulate`. */
+void hd_nc16_from_plain(float *nc16, const float *plain, int B, int C, int HW);
+void hd_nc16_to_plain(float *plain, const float *nc16, int B, int C, int HW, int accumulate);
+/* 2x2 max pooling and nearest 2x upsampling in nc16 (C counts real channels). */
+void hd_maxpool2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W);
+void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W);
+void hd_upsample2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W);
+void hd_upsample2_nc16_backward(float *dinp, const float *dout, int B, int C, int H, int W);
 
 /* ---- elementwise (n values) */
 void hd_lrelu_forward(float *out, const float *inp, size_t n, float slope);

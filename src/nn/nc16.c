@@ -1,0 +1,127 @@
+/* nc16.c: the layers that surround the convolutions in oneDNN's blocked channel layout nChw16c
+ * ("nc16", see nn.h): conversion from and to plain NCHW, 2x2 max pooling and nearest 2x
+ * upsampling. A block holds 16 channels of one pixel side by side, so every loop here runs over
+ * (image, block, pixel) with the 16 lanes innermost. Padded lanes stay zero. */
+#include <string.h>
+#include "nn/nn.h"
+
+#define L HD_NC16_BLOCK
+
+void hd_nc16_from_plain(float *nc16, const float *plain, int B, int C, int HW)
+{
+    /* nc16(n, c / 16, p, c % 16) = plain(n, c, p), 0 for c >= C */
+    int CB = hd_nc16_channels(C) / L;
+#pragma omp parallel for schedule(static) if ((double)B * CB * HW * L > 262144)
+    for (long nb = 0; nb < (long)B * CB; nb++) {
+        int n = (int)(nb / CB), cb = (int)(nb % CB);
+        float *dst = nc16 + (size_t)nb * HW * L;
+        for (int p = 0; p < HW; p++)
+            for (int l = 0; l < L; l++) {
+                int c = cb * L + l;
+                dst[(size_t)p * L + l] = c < C ? plain[((size_t)n * C + c) * HW + p] : 0.0f;
+            }
+    }
+}
+
+void hd_nc16_to_plain(float *plain, const float *nc16, int B, int C, int HW, int accumulate)
+{
+    int CB = hd_nc16_channels(C) / L;
+#pragma omp parallel for schedule(static) if ((double)B * C * HW > 262144)
+    for (long nc = 0; nc < (long)B * C; nc++) {
+        int n = (int)(nc / C), c = (int)(nc % C);
+        const float *src = nc16 + ((size_t)n * CB + c / L) * HW * L + c % L;
+        float *dst = plain + (size_t)nc * HW;
+        if (accumulate)
+            for (int p = 0; p < HW; p++) dst[p] += src[(size_t)p * L];
+        else
+            for (int p = 0; p < HW; p++) dst[p] = src[(size_t)p * L];
+    }
+}
+
+void hd_maxpool2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W)
+{
+    /* out(y, x) = max over the 2x2 block at (2y, 2x), lane by lane */
+    int CB = hd_nc16_channels(C) / L, Ho = H / 2, Wo = W / 2;
+#pragma omp parallel for schedule(static) if ((double)B * CB * H * W * L > 262144)
+    for (long nb = 0; nb < (long)B * CB; nb++) {
+        const float *src = inp + (size_t)nb * H * W * L;
+        float *dst = out + (size_t)nb * Ho * Wo * L;
+        for (int y = 0; y < Ho; y++)
+            for (int x = 0; x < Wo; x++) {
+                const float *a = src + ((size_t)(2 * y) * W + 2 * x) * L, *b = a + L, *c = a + (size_t)W * L, *d = c + L;
+                float *o = dst + ((size_t)y * Wo + x) * L;
+                for (int l = 0; l < L; l++) {
+                    float m = a[l];
+                    if (b[l] > m) m = b[l];
+                    if (c[l] > m) m = c[l];
+                    if (d[l] > m) m = d[l];
+                    o[l] = m;
+                }
+            }
+    }
+}
+
+void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W)
+{
+    /* forward: out = max of the block; the gradient goes to the first maximum in row order */
+    int CB = hd_nc16_channels(C) / L, Ho = H / 2, Wo = W / 2;
+#pragma omp parallel for schedule(static) if ((double)B * CB * H * W * L > 262144)
+    for (long nb = 0; nb < (long)B * CB; nb++) {
+        const float *src = inp + (size_t)nb * H * W * L;
+        float *dsrc = dinp + (size_t)nb * H * W * L;
+        const float *g = dout + (size_t)nb * Ho * Wo * L;
+        for (int y = 0; y < Ho; y++)
+            for (int x = 0; x < Wo; x++) {
+                size_t ia = ((size_t)(2 * y) * W + 2 * x) * L, ib = ia + L, ic = ia + (size_t)W * L, id = ic + L;
+                const float *gv = g + ((size_t)y * Wo + x) * L;
+                for (int l = 0; l < L; l++) {
+                    size_t best = ia + l;
+                    float m = src[best];
+                    if (src[ib + l] > m) best = ib + l, m = src[best];
+                    if (src[ic + l] > m) best = ic + l, m = src[best];
+                    if (src[id + l] > m) best = id + l;
+                    dsrc[best] += gv[l];
+                }
+            }
+    }
+}
+
+void hd_upsample2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W)
+{
+    /* out(y, x) = inp(y / 2, x / 2) */
+    int CB = hd_nc16_channels(C) / L, W2 = 2 * W;
+#pragma omp parallel for schedule(static) if ((double)B * CB * H * W * L > 65536)
+    for (long nb = 0; nb < (long)B * CB; nb++) {
+        const float *src = inp + (size_t)nb * H * W * L;
+        float *dst = out + (size_t)nb * 4 * H * W * L;
+        for (int y = 0; y < H; y++) {
+            float *d0 = dst + (size_t)(2 * y) * W2 * L, *d1 = d0 + (size_t)W2 * L;
+            for (int x = 0; x < W; x++) {
+                const float *s = src + ((size_t)y * W + x) * L;
+                memcpy(d0 + (size_t)(2 * x) * L, s, L * sizeof(float));
+                memcpy(d0 + (size_t)(2 * x + 1) * L, s, L * sizeof(float));
+                memcpy(d1 + (size_t)(2 * x) * L, s, L * sizeof(float));
+                memcpy(d1 + (size_t)(2 * x + 1) * L, s, L * sizeof(float));
+            }
+        }
+    }
+}
+
+void hd_upsample2_nc16_backward(float *dinp, const float *dout, int B, int C, int H, int W)
+{
+    /* forward: out(y, x) = inp(y / 2, x / 2); dinp sums its four copies */
+    int CB = hd_nc16_channels(C) / L, W2 = 2 * W;
+#pragma omp parallel for schedule(static) if ((double)B * CB * H * W * L > 65536)
+    for (long nb = 0; nb < (long)B * CB; nb++) {
+        float *d = dinp + (size_t)nb * H * W * L;
+        const float *g = dout + (size_t)nb * 4 * H * W * L;
+        for (int y = 0; y < H; y++) {
+            const float *g0 = g + (size_t)(2 * y) * W2 * L, *g1 = g0 + (size_t)W2 * L;
+            for (int x = 0; x < W; x++) {
+                const float *a = g0 + (size_t)(2 * x) * L, *b = a + L, *c = g1 + (size_t)(2 * x) * L, *e = c + L;
+                float *o = d + ((size_t)y * W + x) * L;
+                for (int l = 0; l < L; l++) o[l] += (a[l] + b[l]) + (c[l] + e[l]);
+            }
+        }
+    }
+}

@@ -1,0 +1,254 @@
+/* cmd_bench.c: `hdnet bench`: the engine's figures: the machine's SGEMM peak (measured here, the
+ * yardstick for every share), each Common-Net convolution (forward, backward-data,
+ * backward-weights), the whole Common-Net forward and forward+backward, peak memory; then the
+ * HD-Net and alignment sections when linked (tools/bench.h). Best of --repeats runs each. */
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <cblas.h>
+#include <omp.h>
+#include "cli.h"
+#include "bench.h"
+#include "nn/nn.h"
+#include "model/unet.h"
+
+HD_COMMAND("bench", cmd_bench, "measure SGEMM peak, convolution and network speed, memory")
+
+#define BENCH_CIN 32
+#define BENCH_COUT 3
+
+static float *bench_buf(size_t n, hd_rng *rng)
+{
+    float *x = hd_malloc((n ? n : 1) * sizeof(float));
+    if (x)
+        for (size_t i = 0; i < n; i++) x[i] = hd_rng_range(rng, -0.5f, 0.5f);
+    return x;
+}
+
+/* Best seconds of `repeats` SGEMMs of n x n matrices: GFLOP/s = 2 n^3 / t. */
+static double sgemm_peak(int n, int repeats)
+{
+    hd_rng rng;
+    hd_rng_seed(&rng, 1, 1);
+    size_t nn = (size_t)n * n;
+    float *a = bench_buf(nn, &rng), *b = bench_buf(nn, &rng), *c = bench_buf(nn, &rng);
+    double best = 1e30;
+    if (!a || !b || !c) best = 0;
+    for (int r = 0; r < repeats + 1 && a && b && c; r++) {
+        double t = hd_seconds();
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0f, a, n, b, n, 0.0f, c, n);
+        t = hd_seconds() - t;
+        if (r > 0 && t < best) best = t; /* the first run warms up */
+    }
+    free(a), free(b), free(c);
+    return best > 0 && best < 1e30 ? 2.0 * n * n * (double)n / best * 1e-9 : 0.0;
+}
+
+/* The conv layers of a Common-Net (cin -> cout, width w) at size S: name, C, OC, side. */
+typedef struct layer_shape {
+    const char *name;
+    int C, OC, side;
+} layer_shape;
+
+static int unet_layers(int w, int S, layer_shape *l)
+{
+    static const char *names[HD_UNET_LAYERS] = {"enc0", "enc1", "enc2", "enc3", "enc4", "enc5",
+                                                "enc6", "dec5a", "dec5b", "dec4a", "dec4b", "dec3a",
+                                                "dec3b", "dec2a", "dec2b", "dec1a", "dec1b", "dec1c"};
+    static const int lev[HD_UNET_LAYERS] = {0, 0, 1, 2, 3, 4, 5, 4, 4, 3, 3, 2, 2, 1, 1, 0, 0, 0};
+    for (int k = 0; k < HD_UNET_LAYERS; k++) {
+        int C = w, OC = w;
+        if (k == 0) C = BENCH_CIN;
+        else if (k == 7 || k == 8) C = 2 * w, OC = 2 * w;
+        else if (k >= 9 && k <= 14) C = (k % 2) ? 3 * w : 2 * w, OC = 2 * w;
+        else if (k == 15) C = 2 * w + BENCH_CIN, OC = 64;
+        else if (k == 16) C = 64, OC = 32;
+        else if (k == 17) C = 32, OC = BENCH_COUT;
+        l[k] = (layer_shape){names[k], C, OC, S >> lev[k]};
+    }
+    return HD_UNET_LAYERS;
+}
+
+typedef struct conv_times {
+    double fwd, bwd_data, bwd_weights; /* best seconds */
+} conv_times;
+
+/* Times one convolution shape (leaky ReLU fused, as in the net). */
+static hd_status time_conv(int B, int C, int OC, int side, hd_act act, hd_conv_path path, int repeats, conv_times *t)
+{
+    hd_conv3x3 *p;
+    hd_status st = hd_conv3x3_plan(&p, B, C, side, side, OC, 1, act, 0.1f, path);
+    if (st != HD_OK) return st;
+    hd_rng rng;
+    hd_rng_seed(&rng, 2, 1);
+    size_t nx = (size_t)B * C * side * side, no = (size_t)B * OC * side * side, nw = (size_t)OC * C * 9;
+    float *x = bench_buf(nx, &rng), *out = bench_buf(no, &rng), *dout = bench_buf(no, &rng);
+    float *w = bench_buf(nw, &rng), *b = bench_buf((size_t)OC, &rng), *dx = bench_buf(nx, &rng);
+    float *dw = bench_buf(nw, &rng), *db = bench_buf((size_t)OC, &rng);
+    if (!x || !out || !dout || !w || !b || !dx || !dw || !db) st = HD_ERR_NOMEM;
+    t->fwd = t->bwd_data = t->bwd_weights = 1e30;
+    for (int r = 0; r < repeats + 1 && st == HD_OK; r++) {
+        double t0 = hd_seconds();
+        hd_conv3x3_forward(p, out, x, w, b);
+        double t1 = hd_seconds();
+        hd_conv3x3_backward(p, dx, NULL, NULL, dout, out, x, w);
+        double t2 = hd_seconds();
+        hd_conv3x3_backward(p, NULL, dw, db, dout, out, x, w);
+        double t3 = hd_seconds();
+        if (r == 0) continue; /* warm-up */
+        if (t1 - t0 < t->fwd) t->fwd = t1 - t0;
+        if (t2 - t1 < t->bwd_data) t->bwd_data = t2 - t1;
+        if (t3 - t2 < t->bwd_weights) t->bwd_weights = t3 - t2;
+    }
+    free(x), free(out), free(dout), free(w), free(b), free(dx), free(dw), free(db);
+    hd_conv3x3_free(p);
+    return st;
+}
+
+typedef struct net_times {
+    double fwd, fwd_bwd; /* best seconds */
+    size_t arena;
+} net_times;
+
+static hd_status time_unet(const bench_args *a, net_times *t)
+{
+    hd_unet *net;
+    hd_status st = hd_unet_create(&net, BENCH_CIN, BENCH_COUT, a->width, a->batch, a->size, a->size, HD_CONV_AUTO);
+    if (st != HD_OK) return st;
+    int np = 0;
+    size_t total = 0;
+    hd_unet_params("net", BENCH_CIN, BENCH_COUT, a->width, NULL, &np, &total);
+    hd_rng rng;
+    hd_rng_seed(&rng, 3, 1);
+    size_t nx = (size_t)a->batch * BENCH_CIN * a->size * a->size, no = (size_t)a->batch * BENCH_COUT * a->size * a->size;
+    float *params = bench_buf(total, &rng), *grads = hd_calloc(total, sizeof(float));
+    float *x = bench_buf(nx, &rng), *out = bench_buf(no, &rng), *dout = bench_buf(no, &rng);
+    if (!params || !grads || !x || !out || !dout) st = HD_ERR_NOMEM;
+    for (size_t i = 0; params && i < total; i++) params[i] *= 0.1f;
+    t->fwd = t->fwd_bwd = 1e30;
+    if (st == HD_OK) hd_unet_bind(net, params, grads);
+    for (int r = 0; r < a->repeats + 1 && st == HD_OK; r++) {
+        double t0 = hd_seconds();
+        hd_unet_forward(net, x, out);
+        double t1 = hd_seconds();
+        hd_unet_forward(net, x, out);
+        hd_unet_backward(net, dout, NULL, NULL);
+        double t2 = hd_seconds();
+        if (r == 0) continue;
+        if (t1 - t0 < t->fwd) t->fwd = t1 - t0;
+        if (t2 - t1 < t->fwd_bwd) t->fwd_bwd = t2 - t1;
+    }
+    t->arena = st == HD_OK ? hd_unet_memory(net) : 0;
+    free(params), free(grads), free(x), free(out), free(dout);
+    hd_unet_free(net);
+    return st;
+}
+
+int cmd_bench(int argc, char **argv)
+{
+    bench_args a = {.size = 256, .batch = 1, .threads = 2, .width = 48, .json = 0, .repeats = 5, .out = stdout};
+    int layers = 1, portable = 1;
+    const hd_opt opts[] = {
+        {"size", 0, HD_OPT_INT, &a.size, "S", "image side, a multiple of 32 (default 256)"},
+        {"batch", 0, HD_OPT_INT, &a.batch, "B", "images per forward (default 1)"},
+        {"threads", 0, HD_OPT_INT, &a.threads, "T", "OpenMP and OpenBLAS threads (default 2)"},
+        {"width", 0, HD_OPT_INT, &a.width, "W", "Common-Net width (default 48, the paper's)"},
+        {"repeats", 0, HD_OPT_INT, &a.repeats, "R", "timed runs per figure after one warm-up; the best counts (default 5)"},
+        {"json", 0, HD_OPT_FLAG, &a.json, NULL, "print one JSON object instead of tables"},
+        {NULL, 0, 0, NULL, NULL, NULL},
+    };
+    const hd_cmd_spec spec = {
+        "bench", "[--size S] [--batch B] [--threads T] [--width W] [--repeats R] [--json]",
+        "Measures the machine's SGEMM peak (OpenBLAS, 2048^3), then every 3x3 convolution of a\n"
+        "Common-Net (cin 32, cout 3) forward, backward-data and backward-weights, the whole Common-Net\n"
+        "forward and forward+backward, and peak memory; then the HD-Net and alignment sections.\n"
+        "GFLOP/s count direct-convolution FLOPs (2 x multiply-adds) over the best time.",
+        opts, 0, 0};
+    char **pos = NULL;
+    int npos = 0, code = 0;
+    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    free(pos);
+    if (a.size < 32 || a.size % 32 || a.size > 4096)
+        return hd_usage_error(&spec, "--size must be a multiple of 32 in 32..4096, got %d", a.size);
+    if (a.batch < 1 || a.batch > 256) return hd_usage_error(&spec, "--batch must be in 1..256, got %d", a.batch);
+    if (a.threads < 1 || a.threads > 1024) return hd_usage_error(&spec, "--threads must be in 1..1024, got %d", a.threads);
+    if (a.width < 1 || a.width > 1024) return hd_usage_error(&spec, "--width must be in 1..1024, got %d", a.width);
+    if (a.repeats < 1 || a.repeats > 1000) return hd_usage_error(&spec, "--repeats must be in 1..1000, got %d", a.repeats);
+    omp_set_num_threads(a.threads);
+    openblas_set_num_threads(a.threads);
+    FILE *o = stdout;
+    int J = a.json;
+
+    if (J) fprintf(o, "{\n");
+    else fprintf(o, "hdnet bench: size %d, batch %d, threads %d, width %d, best of %d\n", a.size, a.batch, a.threads,
+                 a.width, a.repeats);
+    fflush(o);
+    a.sgemm_peak_gflops = sgemm_peak(2048, a.repeats < 3 ? a.repeats : 3);
+    double peak = a.sgemm_peak_gflops;
+    if (J) fprintf(o, "\"size\": %d,\n\"batch\": %d,\n\"threads\": %d,\n\"width\": %d,\n\"sgemm_peak_gflops\": %.1f,\n",
+                   a.size, a.batch, a.threads, a.width, peak);
+    else fprintf(o, "SGEMM peak (OpenBLAS, 2048^3): %.1f GFLOP/s\n", peak);
+
+    layer_shape ls[HD_UNET_LAYERS];
+    int nl = unet_layers(a.width, a.size, ls);
+    if (layers) {
+        if (J) fprintf(o, "\"layers\": [\n");
+        else fprintf(o, "\nCommon-Net convolutions (oneDNN when built with it; GFLOP/s and share of the SGEMM peak)\n"
+                        "%-6s %5s %5s %5s | %9s %7s %5s | %9s %7s | %9s %7s\n",
+                     "layer", "C", "OC", "side", "fwd ms", "GFLOP/s", "peak", "bwd-d ms", "GFLOP/s", "bwd-w ms", "GFLOP/s");
+        for (int k = 0; k < nl; k++) {
+            conv_times t;
+            if (time_conv(a.batch, ls[k].C, ls[k].OC, ls[k].side, k == nl - 1 ? HD_ACT_NONE : HD_ACT_LRELU,
+                          HD_CONV_AUTO, a.repeats, &t) != HD_OK)
+                return hd_report("bench");
+            double fl = 2.0 * 9 * ls[k].C * ls[k].OC * (double)ls[k].side * ls[k].side * a.batch * 1e-9;
+            if (J)
+                fprintf(o, "  {\"name\": \"%s\", \"C\": %d, \"OC\": %d, \"side\": %d, \"fwd_s\": %.6f, \"bwd_data_s\": %.6f, \"bwd_weights_s\": %.6f, \"fwd_gflops\": %.1f, \"bwd_data_gflops\": %.1f, \"bwd_weights_gflops\": %.1f}%s\n",
+                        ls[k].name, ls[k].C, ls[k].OC, ls[k].side, t.fwd, t.bwd_data, t.bwd_weights, fl / t.fwd,
+                        fl / t.bwd_data, fl / t.bwd_weights, k == nl - 1 ? "" : ",");
+            else
+                fprintf(o, "%-6s %5d %5d %5d | %9.3f %7.1f %4.0f%% | %9.3f %7.1f | %9.3f %7.1f\n", ls[k].name, ls[k].C,
+                        ls[k].OC, ls[k].side, t.fwd * 1e3, fl / t.fwd, peak > 0 ? 100 * fl / t.fwd / peak : 0.0,
+                        t.bwd_data * 1e3, fl / t.bwd_data, t.bwd_weights * 1e3, fl / t.bwd_weights);
+            fflush(o);
+        }
+        if (J) fprintf(o, "],\n");
+    }
+    if (portable) {
+        /* the portable path on the paper's 48 -> 48 layer at the full size, for comparison */
+        conv_times t;
+        if (time_conv(a.batch, a.width, a.width, a.size, HD_ACT_LRELU, HD_CONV_PORTABLE, a.repeats < 3 ? a.repeats : 3, &t) != HD_OK)
+            return hd_report("bench");
+        double fl = 2.0 * 9 * a.width * a.width * (double)a.size * a.size * a.batch * 1e-9;
+        if (J) fprintf(o, "\"portable_conv_fwd_gflops\": %.1f,\n\"portable_conv_bwd_data_gflops\": %.1f,\n\"portable_conv_bwd_weights_gflops\": %.1f,\n",
+                       fl / t.fwd, fl / t.bwd_data, fl / t.bwd_weights);
+        else fprintf(o, "portable path (im2col + sgemm), %d->%d at %d: fwd %.1f, bwd-data %.1f, bwd-weights %.1f GFLOP/s\n",
+                     a.width, a.width, a.size, fl / t.fwd, fl / t.bwd_data, fl / t.bwd_weights);
+    }
+
+    net_times nt;
+    if (time_unet(&a, &nt) != HD_OK) return hd_report("bench");
+    double gf = 2.0 * hd_unet_macs(BENCH_CIN, BENCH_COUT, a.width, a.size, a.size) * a.batch * 1e-9;
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    if (J)
+        fprintf(o, "\"commonnet_gflop\": %.3f,\n\"commonnet_fwd_s\": %.6f,\n\"commonnet_fwd_gflops\": %.1f,\n"
+                   "\"commonnet_fwd_bwd_s\": %.6f,\n\"commonnet_fwd_bwd_ratio\": %.3f,\n\"commonnet_arena_bytes\": %zu,\n"
+                   "\"peak_rss_bytes\": %ld,\n",
+                gf, nt.fwd, gf / nt.fwd, nt.fwd_bwd, nt.fwd_bwd / nt.fwd, nt.arena, ru.ru_maxrss * 1024L);
+    else
+        fprintf(o, "\nCommon-Net (cin %d, cout %d, width %d) at %dx%d, batch %d: %.2f GFLOP per forward\n"
+                   "  forward          %8.1f ms  %7.1f GFLOP/s  (%.0f%% of SGEMM peak)\n"
+                   "  forward+backward %8.1f ms  %7.1f GFLOP/s  (%.2fx the forward)\n"
+                   "  activation arena %.1f MB; peak resident memory so far %.1f MB\n",
+                BENCH_CIN, BENCH_COUT, a.width, a.size, a.size, a.batch, gf, nt.fwd * 1e3, gf / nt.fwd,
+                peak > 0 ? 100 * gf / nt.fwd / peak : 0.0, nt.fwd_bwd * 1e3, 3 * gf / nt.fwd_bwd,
+                nt.fwd_bwd / nt.fwd, nt.arena / 1048576.0, ru.ru_maxrss / 1024.0);
+    fflush(o);
+    a.out = o;
+    int rc = 0;
+    if (bench_hdnet && bench_hdnet(&a) != 0) rc = 1;
+    if (bench_align && bench_align(&a) != 0) rc = 1;
+    if (J) fprintf(o, "\"ok\": %s\n}\n", rc ? "false" : "true");
+    return rc ? HD_EXIT_FAIL : HD_EXIT_OK;
+}
