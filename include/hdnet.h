@@ -418,7 +418,8 @@ typedef struct hd_aligned_face {
     float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
     int photo_width, photo_height;         /* the photo the face was found in */
     float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
-    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates */
+    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates (the landmarks'
+                        * bounding box when the landmarks were given) */
     /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
      * taken to the camera frame as c = (x, -y, depth_sign * z):
      *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */

@@ -220,6 +220,11 @@ static void test_round_trip_and_normals(void)
     hd_image_free(&coverage);
     hd_poisson_report away_rep;
     CHECK(hd_warp_back_blend(&away, &face.texture, 0, &photo, &away_rep) == HD_OK && away_rep.unknowns == 0);
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++) away.landmarks[i][1] = 1e20f * (float)(i % 3 - 1);
+    CHECK(hd_warp_back_blend(&away, &face.texture, 0, &photo, &away_rep) == HD_OK);
+    hd_aligned_face far_face;
+    CHECK(hd_align_face(&photo, (const float (*)[3])away.landmarks, 64, &far_face) == HD_OK);
+    hd_aligned_face_free(&far_face);
 
     /* a texture at another size (a model's output) warps back too */
     hd_image small = {0};
@@ -374,7 +379,9 @@ static void test_poisson(void)
     CHECK(hd_poisson_blend(&src, &mask, 150, -30, 1e-4, &target, &rep) == HD_OK);
     CHECK(rep.unknowns > 0 && rep.residual[0] <= 1e-4);
     CHECK(blend_residual(&src, &mask, 150, -30, &orig, &target, 1) <= 1.05e-4);
-    /* errors */
+    /* errors: a NaN in the source is reported, not blended */
+    src.data[sw * 60 + 70] = NAN;
+    CHECK(hd_poisson_blend(&src, &mask, ox, oy, 1e-4, &target, &rep) == HD_ERR_NUMERIC);
     hd_image wrong = {0};
     CHECK(hd_image_alloc(&wrong, 10, 10, 1) == HD_OK);
     CHECK(hd_poisson_blend(&src, &wrong, 0, 0, 0, &target, NULL) == HD_ERR_ARG);

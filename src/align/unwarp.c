@@ -153,6 +153,8 @@ void hd_aligned_faces_free(hd_aligned_face *faces, int count)
  * centres at +0.5), clamped at the borders. */
 static float sample_bilinear(const float *src, int w, int h, float px, float py)
 {
+    px = fminf(fmaxf(px, -1.0f), w + 1.0f); /* the border is replicated anyway */
+    py = fminf(fmaxf(py, -1.0f), h + 1.0f);
     float fx = px - 0.5f, fy = py - 0.5f;
     int ix = (int)floorf(fx), iy = (int)floorf(fy);
     float ax = fx - ix, ay = fy - iy;

@@ -69,12 +69,9 @@ hd_status hd_photo_raster_build(const hd_mesh *mesh, const float (*landmarks)[3]
         if (fabs(area) < 1e-12) continue;
         float tlo_x = fminf(a[0], fminf(b[0], c[0])), thi_x = fmaxf(a[0], fmaxf(b[0], c[0]));
         float tlo_y = fminf(a[1], fminf(b[1], c[1])), thi_y = fmaxf(a[1], fmaxf(b[1], c[1]));
-        int px0 = (int)floor(tlo_x - 0.5f), px1 = (int)ceil(thi_x - 0.5f);
-        int py0 = (int)floor(tlo_y - 0.5f), py1 = (int)ceil(thi_y - 0.5f);
-        if (px0 < x0) px0 = x0;
-        if (py0 < y0) py0 = y0;
-        if (px1 > x1) px1 = x1;
-        if (py1 > y1) py1 = y1;
+        /* clamped to the window in double before the conversion (landmarks may be far off) */
+        int px0 = (int)fmax(floor(tlo_x - 0.5), x0), px1 = (int)fmin(ceil(thi_x - 0.5), x1);
+        int py0 = (int)fmax(floor(tlo_y - 0.5), y0), py1 = (int)fmin(ceil(thi_y - 0.5), y1);
         float za = depth_sign * a[2], zb = depth_sign * b[2], zc = depth_sign * c[2];
         for (int y = py0; y <= py1; y++)
             for (int x = px0; x <= px1; x++) {
