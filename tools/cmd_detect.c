@@ -193,11 +193,9 @@ int cmd_detect(int argc, char **argv)
     double t_detect = hd_seconds() - t0;
     printf("%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
     if (count == 0) {
-        printf("no face found (score threshold %.2f)\n", (double)min_score);
-        if (landmarks_path || zoom_size) {
-            hd_fail(HD_ERR_NOTFOUND, "%s: no face found: no landmarks to write or zoom to", path);
-            goto done;
-        }
+        printf("no face found (score threshold %.2f)%s\n", (double)min_score,
+               zoom_size && out ? ": nothing to zoom to, drawing the whole photo" : "");
+        zoom_size = 0;
     }
     if (!no_landmarks && count > 0) {
         lm = hd_calloc((size_t)count, sizeof *lm);
