@@ -12,7 +12,7 @@ static void warn(const char *message) { fprintf(stderr, "hdnet eval: skipped: %s
 static void cell(int has, const char *fmt, double v)
 {
     if (has) printf(fmt, v);
-    else printf("%*s", 8, "-");
+    else printf("%7s ", "-");
 }
 
 static void print_table(const hd_eval_report *r)
