@@ -384,9 +384,9 @@ static void test_ops(void)
     const float *out_b = hd_tfjs_output(g, "out_b", &nd, dims);
     CHECK(out_b && nd == 4 && dims[1] == eh && dims[2] == ew && dims[3] == 4);
     if (out_b && nd == 4 && dims[1] == eh && dims[2] == ew) check_close("out_b", out_b, e1, eh * ew * 4, 1e-5f);
-    const float *d1_got = hd_tfjs_output(g, "d1", &nd, dims);
-    CHECK(d1_got && dims[3] == 10);
-    if (d1_got) check_close("d1", d1_got, d1, 200, 1e-5f);
+    /* Intermediate values are not kept (their memory is reused); e1 depends on d1 anyway. */
+    CHECK(hd_tfjs_output(g, "d1", &nd, dims) == NULL && strstr(hd_error(), "not an output"));
+    (void)d1;
     CHECK(hd_tfjs_output(g, "nope", NULL, NULL) == NULL && strstr(hd_error(), "nope"));
     /* A second run on other data gives that data's answer (no state kept between runs). */
     for (int i = 0; i < X_H * X_W * X_C; i++) x[i] = 0.0f;

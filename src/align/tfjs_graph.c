@@ -1,7 +1,8 @@
 /* tfjs_graph.c: loads a TensorFlow.js graph model (JSON GraphDef + weight shards) and runs it on the
  * CPU. Load does all the checking: the manifest's byte count against the shards, every node's op,
  * attributes, inputs and shapes; a run is then a plain walk over the nodes in topological order,
- * each writing its own NHWC float32 buffer in one arena (Reshape and Identity alias their input).
+ * each writing an NHWC float32 buffer in one arena, planned at load so that buffers whose lives do
+ * not overlap share memory (Reshape and Identity alias their input).
  *
  * Letters: H, W, C input height, width, channels; Ho, Wo, OC output; KH, KW kernel; sh, sw
  * strides; dh, dw dilations; M depthwise channel multiplier. Filters are TF's HWIO (KH, KW, C, OC)
@@ -95,6 +96,7 @@ typedef struct tg_node {
     float pad_value;     /* PadV2 */
     int pads[HD_TFJS_MAX_DIMS][2];
     int consumers;       /* how many nodes read this one */
+    int is_output;       /* its buffer survives the run (it is, or aliases, a graph output) */
     tg_value out;
 } tg_node;
 
@@ -770,6 +772,82 @@ static hd_status shape_placeholder(hd_tfjs_graph *g, tg_node *n, const cJSON *js
     return HD_OK;
 }
 
+/* Places every computing node's output in the arena (Identity and Reshape alias their input):
+ * a buffer lives from the step that writes it to the last step that reads it (through aliases),
+ * the graph's outputs to the end, and takes the lowest offset free for that whole span, so that
+ * buffers whose lives do not overlap share memory. The im2col scratch comes first. */
+static hd_status plan_arena(hd_tfjs_graph *g)
+{
+    int nn = g->nnodes;
+    int *owner = hd_malloc((size_t)nn * sizeof *owner), *last = hd_malloc((size_t)nn * sizeof *last);
+    size_t *offset = hd_calloc((size_t)nn, sizeof *offset);
+    int *live = hd_malloc((size_t)nn * sizeof *live), nlive = 0;
+    hd_status st = HD_OK;
+    if (!owner || !last || !offset || !live) {
+        st = HD_ERR_NOMEM;
+        goto done;
+    }
+    for (int k = 0; k < nn; k++) {
+        int i = g->order[k];
+        const tg_node *n = &g->nodes[i];
+        owner[i] = n->kind == OP_IDENTITY || n->kind == OP_RESHAPE ? owner[n->in[0]] : i;
+        last[i] = k;
+        for (int j = 0; j < n->nin; j++) {
+            int o = owner[n->in[j]];
+            if (last[o] < k) last[o] = k;
+        }
+    }
+    for (int i = 0; i < nn; i++)
+        if (g->nodes[i].consumers == 0) last[owner[i]] = INT_MAX; /* outputs survive the run */
+    size_t base = align_floats(g->col_size), top = base;
+    for (int k = 0; k < nn; k++) {
+        int i = g->order[k];
+        const tg_node *n = &g->nodes[i];
+        if (n->kind == OP_CONST || owner[i] != i) continue;
+        int keep = 0;
+        for (int l = 0; l < nlive; l++)
+            if (last[live[l]] >= k) live[keep++] = live[l];
+        nlive = keep;
+        size_t size = align_floats(n->out.size ? n->out.size : 1), best = SIZE_MAX;
+        /* Candidate offsets: the base and the end of each live buffer; keep the lowest that fits. */
+        for (int c = -1; c < nlive; c++) {
+            size_t at = c < 0 ? base : offset[live[c]] + align_floats(g->nodes[live[c]].out.size ? g->nodes[live[c]].out.size : 1);
+            if (at >= best) continue;
+            int clash = 0;
+            for (int l = 0; l < nlive && !clash; l++) {
+                size_t lo = offset[live[l]], hi = lo + align_floats(g->nodes[live[l]].out.size ? g->nodes[live[l]].out.size : 1);
+                clash = at < hi && lo < at + size;
+            }
+            if (!clash) best = at;
+        }
+        if (best > SIZE_MAX / sizeof(float) - size) {
+            st = hd_fail(HD_ERR_RANGE, "%s: activations too large", g->path);
+            goto done;
+        }
+        offset[i] = best;
+        live[nlive++] = i;
+        if (best + size > top) top = best + size;
+    }
+    st = hd_arena_init(&g->arena, top * sizeof(float));
+    if (st != HD_OK) goto done;
+    float *mem = (float *)(void *)g->arena.base;
+    g->arena.used = g->arena.size;
+    g->col = g->col_size ? mem : NULL;
+    for (int k = 0; k < nn; k++) {
+        int i = g->order[k];
+        tg_node *n = &g->nodes[i];
+        if (n->kind == OP_CONST) continue;
+        n->out.data = mem + offset[owner[i]];
+        n->is_output = last[owner[i]] == INT_MAX;
+    }
+done:
+    free(owner);
+    free(last);
+    free(offset);
+    free(live);
+    return st;
+}
+
 /* Builds nodes from the parsed JSON; on failure the graph is freed by the caller. */
 static hd_status build_graph(hd_tfjs_graph *g, const cJSON *root, manifest *m)
 {
@@ -950,27 +1028,7 @@ static hd_status build_graph(hd_tfjs_graph *g, const cJSON *root, manifest *m)
         st = n->kind == OP_PLACEHOLDER ? shape_placeholder(g, n, js[i]) : shape_node(g, n, js[i]);
         if (st != HD_OK) goto done;
     }
-    /* The arena: one buffer per computing node, plus the im2col scratch. */
-    size_t total = align_floats(g->col_size);
-    for (int i = 0; i < nn; i++) {
-        tg_node *n = &g->nodes[i];
-        if (n->kind == OP_CONST || n->kind == OP_IDENTITY || n->kind == OP_RESHAPE) continue;
-        size_t a = align_floats(n->out.size);
-        if (a > SIZE_MAX / sizeof(float) - total) {
-            st = hd_fail(HD_ERR_RANGE, "%s: activations too large", g->path);
-            goto done;
-        }
-        total += a;
-    }
-    st = hd_arena_init(&g->arena, total * sizeof(float));
-    if (st != HD_OK) goto done;
-    g->col = g->col_size ? hd_arena_floats(&g->arena, g->col_size) : NULL;
-    for (int k = 0; k < nn; k++) {
-        tg_node *n = &g->nodes[g->order[k]];
-        if (n->kind == OP_CONST) continue;
-        if (n->kind == OP_IDENTITY || n->kind == OP_RESHAPE) n->out.data = g->nodes[n->in[0]].out.data;
-        else n->out.data = hd_arena_floats(&g->arena, n->out.size ? n->out.size : 1);
-    }
+    st = plan_arena(g);
 done:
     free(sorted);
     free(js);
@@ -1334,6 +1392,10 @@ const float *hd_tfjs_output(const hd_tfjs_graph *g, const char *name, int *ndim,
     for (int i = 0; i < g->nnodes; i++) {
         const tg_node *n = &g->nodes[i];
         if (strlen(n->name) == len && strncmp(n->name, name, len) == 0 && n->out.data) {
+            if (!n->is_output) {
+                hd_fail(HD_ERR_NOTFOUND, "%s: '%s' is not an output of the graph (its buffer is reused)", g->path, name);
+                return NULL;
+            }
             if (ndim) *ndim = n->out.ndim;
             if (dims)
                 for (int k = 0; k < n->out.ndim; k++) dims[k] = n->out.dims[k];

@@ -1,8 +1,8 @@
 /* tfjs_graph.h: a small runner for TensorFlow.js graph models (model.json + weight shards), enough
  * for MediaPipe's face detector and face mesh: the JSON GraphDef is read with cJSON, the weights
  * are checked against the manifest and the shard sizes before any byte is read, shapes are inferred
- * once at load, and a run executes the nodes in topological order over NHWC float32 tensors carved
- * from one arena.
+ * once at load, and a run executes the nodes in topological order over NHWC float32 tensors placed
+ * in one arena (buffers whose lives do not overlap share memory).
  *
  * Supported ops: Placeholder, Const, Identity, _FusedConv2D (fused_ops BiasAdd then optionally
  * Relu, Relu6, Prelu or LeakyRelu), Conv2D, DepthwiseConv2dNative, FusedDepthwiseConv2dNative,
@@ -33,9 +33,10 @@ void hd_tfjs_input_shape(const hd_tfjs_graph *graph, int *height, int *width, in
  * into NaN or infinity (named by node). */
 hd_status hd_tfjs_run(hd_tfjs_graph *graph, const float *input);
 
-/* After a run: the value of the node called `name` (a ":0" suffix is accepted), row-major, and its
- * shape (ndim <= HD_TFJS_MAX_DIMS, dims may be NULL). Valid until the next run or free; NULL with
- * an HD_ERR_NOTFOUND reason when there is no such node. */
+/* After a run: the value of the output node called `name` (a ":0" suffix is accepted): a node no
+ * other node reads, or an Identity/Reshape of one (intermediate buffers are reused during the run).
+ * Row-major, with its shape (ndim <= HD_TFJS_MAX_DIMS, dims may be NULL). Valid until the next run
+ * or free; NULL with an HD_ERR_NOTFOUND reason when there is no such output. */
 const float *hd_tfjs_output(const hd_tfjs_graph *graph, const char *name, int *ndim, int dims[HD_TFJS_MAX_DIMS]);
 
 /* IEEE 754 binary16 to float (exact, subnormals, infinities and NaN included). */
