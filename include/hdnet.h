@@ -488,13 +488,22 @@ typedef struct hd_poisson_report {
 hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
                            double tolerance, hd_image *target, hd_poisson_report *report);
 
+/* What hd_warp_back_blend puts into the photo. */
+typedef enum hd_warp_mode {
+    HD_WARP_REPLACE, /* the texture itself: the face is redrawn at the texture's resolution */
+    HD_WARP_CHANGE   /* the photo plus the change the texture makes, texture - face->texture (the
+                      * latter resampled to the texture's size): the photo's own detail is kept at
+                      * full resolution, so a face larger than the texture stays sharp */
+} hd_warp_mode;
+
 /* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
- * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo the face
- * came from, same size and channels as the texture) with hd_warp_back, and blends it in with
- * hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by one
- * pixel, so that outside the face the photo is untouched and no seam shows. report may be NULL. */
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, double tolerance,
-                             hd_image *photo, hd_poisson_report *report);
+ * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo
+ * the face came from, same size and channels as the texture) as `mode` says, and blends it in
+ * with hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by
+ * one pixel, so that outside the face the photo is untouched and no seam shows. report may be
+ * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
+                             double tolerance, hd_image *photo, hd_poisson_report *report);
 
 
 #ifdef __cplusplus

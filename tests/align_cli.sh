@@ -60,6 +60,11 @@ a=aligned/astronaut
 expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
     --target "$photo" -o roundtrip.png
 [ -s roundtrip.png ] || fail "blend wrote no output"
+expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
+    --original $a/face0.png --target "$photo" -o change.png
+expect 2 "--original goes with --warp" "$HDNET" blend --source $a/face0.png --original $a/face0.png --target "$photo" -o x.png
+expect 1 "says the aligned texture is 128x128" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt \
+    --original "$photo" --target "$photo" -o x.png
 expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --target "$photo" \
     --offset 300,300 -o pasted.png
 expect 1 "the mask must be source-sized" "$HDNET" blend --source $a/face0.png --mask "$photo" --target "$photo" -o x.png

@@ -219,9 +219,9 @@ static void test_round_trip_and_normals(void)
     hd_image_free(&warped);
     hd_image_free(&coverage);
     hd_poisson_report away_rep;
-    CHECK(hd_warp_back_blend(&away, &face.texture, 0, &photo, &away_rep) == HD_OK && away_rep.unknowns == 0);
+    CHECK(hd_warp_back_blend(&away, &face.texture, HD_WARP_REPLACE, 0, &photo, &away_rep) == HD_OK && away_rep.unknowns == 0);
     for (int i = 0; i < HD_FACE_LANDMARKS; i++) away.landmarks[i][1] = 1e20f * (float)(i % 3 - 1);
-    CHECK(hd_warp_back_blend(&away, &face.texture, 0, &photo, &away_rep) == HD_OK);
+    CHECK(hd_warp_back_blend(&away, &face.texture, HD_WARP_REPLACE, 0, &photo, &away_rep) == HD_OK);
     hd_aligned_face far_face;
     CHECK(hd_align_face(&photo, (const float (*)[3])away.landmarks, 64, &far_face) == HD_OK);
     hd_aligned_face_free(&far_face);
@@ -268,7 +268,7 @@ static void test_round_trip_and_normals(void)
     CHECK(hd_image_alloc(&copy, photo.width, photo.height, 3) == HD_OK);
     memcpy(copy.data, photo.data, (size_t)3 * photo.width * photo.height * sizeof(float));
     hd_poisson_report rep;
-    CHECK(hd_warp_back_blend(&face, &face.texture, 0, &copy, &rep) == HD_OK);
+    CHECK(hd_warp_back_blend(&face, &face.texture, HD_WARP_REPLACE, 0, &copy, &rep) == HD_OK);
     CHECK(rep.unknowns > 10000 && rep.residual[0] <= HD_POISSON_TOLERANCE);
     hd_image all = {0};
     CHECK(hd_image_alloc(&all, photo.width, photo.height, 1) == HD_OK);
@@ -288,6 +288,69 @@ static void test_round_trip_and_normals(void)
     hd_aligned_face_free(&face);
     hd_aligned_face_free(&turned);
     hd_image_free(&photo);
+    free(L);
+}
+
+/* A face larger than its texture: HD_WARP_REPLACE redraws it at the texture's resolution and
+ * loses the photo's fine detail; HD_WARP_CHANGE keeps it (an unchanged texture returns the photo
+ * exactly), and a change made in the texture shows in the photo. */
+static void test_change_mode(void)
+{
+    float (*L)[3] = malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
+    double R[9];
+    hd_image photo = {0}, work = {0}, all = {0}, brighter = {0};
+    smooth_photo(&photo, 320, 300);
+    for (int c = 0; c < 3; c++) /* fine detail: a 3-pixel checker */
+        for (int y = 0; y < 300; y++)
+            for (int x = 0; x < 320; x++) photo.data[((size_t)c * 300 + y) * 320 + x] += ((x / 3 + y / 3) % 2) ? 0.05f : -0.05f;
+    project(0, 0, 0, 12, 160, 150, L, R);
+    hd_aligned_face face;
+    CHECK(hd_align_face(&photo, (const float (*)[3])L, 64, &face) == HD_OK);
+    CHECK(hd_image_alloc(&work, 320, 300, 3) == HD_OK && hd_image_alloc(&all, 320, 300, 1) == HD_OK);
+    for (size_t i = 0; i < (size_t)320 * 300; i++) all.data[i] = 1;
+    long n;
+    memcpy(work.data, photo.data, (size_t)3 * 320 * 300 * sizeof(float));
+    CHECK(hd_warp_back_blend(&face, &face.texture, HD_WARP_REPLACE, 0, &work, NULL) == HD_OK);
+    double psnr_replace = psnr_inside(&photo, &work, &all, &n);
+    memcpy(work.data, photo.data, (size_t)3 * 320 * 300 * sizeof(float));
+    CHECK(hd_warp_back_blend(&face, &face.texture, HD_WARP_CHANGE, 0, &work, NULL) == HD_OK);
+    double psnr_change = psnr_inside(&photo, &work, &all, &n);
+    printf("face of 180 px through a 64 texture: replace %.1f dB, change %.1f dB\n", psnr_replace, psnr_change);
+    CHECK(psnr_replace < 40);
+    CHECK(psnr_change > 80);
+    /* brighten a spot around the nose in the texture: the photo's face gets brighter there by
+     * about as much, not elsewhere, and the checker is still there */
+    CHECK(hd_image_alloc(&brighter, 64, 64, 3) == HD_OK);
+    float nu = canonical.uv[2] * 64, nv = canonical.uv[3] * 64; /* vertex 1, the nose tip */
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < 64; y++)
+            for (int x = 0; x < 64; x++) {
+                size_t i = ((size_t)c * 64 + y) * 64 + x;
+                float d2 = (x + 0.5f - nu) * (x + 0.5f - nu) + (y + 0.5f - nv) * (y + 0.5f - nv);
+                brighter.data[i] = face.texture.data[i] + 0.2f * expf(-d2 / (2 * 5.0f * 5.0f));
+            }
+    memcpy(work.data, photo.data, (size_t)3 * 320 * 300 * sizeof(float));
+    CHECK(hd_warp_back_blend(&face, &brighter, HD_WARP_CHANGE, 0, &work, NULL) == HD_OK);
+    int nx = (int)L[1][0], ny = (int)L[1][1];
+    int cx = (int)(0.7f * L[234][0] + 0.3f * L[50][0]), cy = (int)(0.7f * L[234][1] + 0.3f * L[50][1]);
+    double at_nose = 0, at_cheek = 0, detail = 0;
+    for (int dy = -2; dy <= 2; dy++)
+        for (int dx = -2; dx <= 2; dx++) {
+            size_t in = (size_t)(ny + dy) * 320 + nx + dx, ic = (size_t)(cy + dy) * 320 + cx + dx;
+            at_nose += (work.data[in] - photo.data[in]) / 25;
+            at_cheek += (work.data[ic] - photo.data[ic]) / 25;
+            detail = fmax(detail, fabs((work.data[in] - photo.data[in]) - (work.data[in + 1] - photo.data[in + 1])));
+        }
+    printf("bright spot at the nose: change %+.3f at the nose, %+.3f at the cheek, largest step %.4f\n", at_nose,
+           at_cheek, detail);
+    CHECK(at_nose > 0.15 && at_nose < 0.22);
+    CHECK(fabs(at_cheek) < 0.02);
+    CHECK(detail < 0.01); /* the difference is smooth: the checker is untouched */
+    hd_aligned_face_free(&face);
+    hd_image_free(&photo);
+    hd_image_free(&work);
+    hd_image_free(&all);
+    hd_image_free(&brighter);
     free(L);
 }
 
@@ -398,6 +461,7 @@ int main(void)
     if (!load_canonical()) return 1;
     test_fit();
     test_round_trip_and_normals();
+    test_change_mode();
     test_poisson();
     hd_mesh_free(&canonical);
     return test_summary("align");

@@ -4,12 +4,14 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
+#include "core/core.h"
 
 HD_COMMAND("blend", cmd_blend, "Poisson-blend an image (or an aligned face texture) into a photo")
 
 int cmd_blend(int argc, char **argv)
 {
-    const char *source_path = NULL, *target_path = NULL, *mask_path = NULL, *warp_path = NULL, *out_path = NULL;
+    const char *source_path = NULL, *target_path = NULL, *mask_path = NULL, *warp_path = NULL, *out_path = NULL,
+               *original_path = NULL;
     hd_opt_floats offset = {0, 2, {0}};
     float tolerance = (float)HD_POISSON_TOLERANCE;
     int quiet = 0;
@@ -22,18 +24,24 @@ int cmd_blend(int argc, char **argv)
         {"offset", 0, HD_OPT_FLOATS, &offset, "X,Y", "target pixel of the source's top-left pixel (default 0,0)"},
         {"warp", 'w', HD_OPT_STRING, &warp_path, "W.warp.txt",
          "the source is an aligned texture of this face (from `hdnet align`): warp it back into the target first"},
+        {"original", 0, HD_OPT_STRING, &original_path, "FACE.png",
+         "with --warp: the face's own unwarped texture (face<k>.png); only the change source - original is put "
+         "into the photo, which keeps the photo's full-resolution detail"},
         {"tolerance", 0, HD_OPT_FLOAT, &tolerance, "X", "relative residual the solver must reach (default 1e-4)"},
         {"output", 'o', HD_OPT_STRING, &out_path, "OUT.png", "where to write the result, 8-bit PNG (required)"},
         {"quiet", 'q', HD_OPT_FLAG, &quiet, NULL, "do not print the solver's figures"},
         {0},
     };
     hd_cmd_spec spec = {
-        "blend", "--source S.png --target T.png [--mask M.png] [--offset X,Y | --warp W.warp.txt] -o OUT.png",
+        "blend",
+        "--source S.png --target T.png [--mask M.png] [--offset X,Y | --warp W.warp.txt [--original FACE.png]] "
+        "-o OUT.png",
         "Seamless cloning (Perez et al. 2003): inside the mask, the result keeps the source's gradients and\n"
         "meets the target on the mask's boundary, so no seam shows. Solved per channel at full resolution by\n"
         "conjugate gradients with a multigrid preconditioner to the given relative residual, which is printed.\n"
         "With --warp, the source is a texture in the aligned texture space (any size) and is warped back into\n"
-        "the target photo through the face's landmarks before blending (docs/alignment.md).",
+        "the target photo through the face's landmarks before blending; with --original as well, only the\n"
+        "change it makes to the face's own texture is added to the photo (docs/alignment.md).",
         opts, 0, 0};
     char **pos;
     int np, code;
@@ -44,6 +52,7 @@ int cmd_blend(int argc, char **argv)
     if (!out_path) return hd_usage_error(&spec, "-o OUT.png is required");
     if (offset.count != 0 && offset.count != 2) return hd_usage_error(&spec, "--offset wants X,Y");
     if (offset.count && warp_path) return hd_usage_error(&spec, "--offset and --warp exclude each other");
+    if (original_path && !warp_path) return hd_usage_error(&spec, "--original goes with --warp");
     if (!(tolerance > 0 && tolerance < 1)) return hd_usage_error(&spec, "--tolerance must be in (0, 1)");
     int ox = 0, oy = 0;
     if (offset.count) {
@@ -77,8 +86,18 @@ int cmd_blend(int argc, char **argv)
         }
         /* the texture's own mask if given (borrowed: sampled where > 0.5), else the UV layout */
         face.mask = mask;
-        hd_status st = hd_warp_back_blend(&face, &source, tolerance, &target, &rep);
+        hd_status st = HD_OK;
+        if (original_path) {
+            st = hd_image_read_as(original_path, 3, &face.texture);
+            if (!st && (face.texture.width != face.size || face.texture.height != face.size))
+                st = hd_fail(HD_ERR_ARG, "%s is %dx%d, but %s says the aligned texture is %dx%d", original_path,
+                             face.texture.width, face.texture.height, warp_path, face.size, face.size);
+        }
+        if (!st)
+            st = hd_warp_back_blend(&face, &source, original_path ? HD_WARP_CHANGE : HD_WARP_REPLACE, tolerance, &target,
+                                    &rep);
         face.mask = (hd_image){0};
+        hd_image_free(&face.texture);
         if (st) goto done;
     } else {
         if (!mask.data) {

@@ -231,21 +231,44 @@ hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, con
     return st;
 }
 
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, double tolerance,
+/* The change a result makes to the face: texture - face->texture, the latter resampled to the
+ * texture's size. */
+static hd_status texture_change(const hd_aligned_face *face, const hd_image *texture, hd_image *change)
+{
+    if (!face->texture.data || face->texture.channels != texture->channels)
+        return hd_fail(HD_ERR_ARG, "warp back: HD_WARP_CHANGE needs the face's own texture with %d channels",
+                       texture->channels);
+    hd_status st = hd_image_resize(&face->texture, texture->width, texture->height, change);
+    if (st) return st;
+    size_t n = (size_t)texture->width * texture->height * texture->channels;
+    for (size_t i = 0; i < n; i++) change->data[i] = texture->data[i] - change->data[i];
+    return HD_OK;
+}
+
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode, double tolerance,
                              hd_image *photo, hd_poisson_report *report)
 {
     if (report) memset(report, 0, sizeof *report);
     hd_status st = check_face(face);
     if (!st) st = check_texture(texture, NULL);
     if (st) return st;
+    if (mode != HD_WARP_REPLACE && mode != HD_WARP_CHANGE) return hd_fail(HD_ERR_ARG, "warp back: unknown mode %d", (int)mode);
     if (!photo || !photo->data || photo->width != face->photo_width || photo->height != face->photo_height)
         return hd_fail(HD_ERR_ARG, "warp back: the photo is %dx%d, the face was found in a %dx%d photo",
                        photo ? photo->width : 0, photo ? photo->height : 0, face->photo_width, face->photo_height);
     if (photo->channels != texture->channels)
         return hd_fail(HD_ERR_ARG, "warp back: the photo has %d channels, the texture %d", photo->channels,
                        texture->channels);
+    hd_image change = {0};
+    if (mode == HD_WARP_CHANGE) {
+        if ((st = texture_change(face, texture, &change))) return st;
+        texture = &change;
+    }
     hd_mesh mesh;
-    if ((st = hd_mesh_load_canonical(&mesh))) return st;
+    if ((st = hd_mesh_load_canonical(&mesh))) {
+        hd_image_free(&change);
+        return st;
+    }
     hd_photo_raster r;
     hd_image warped = {0}, coverage = {0}, region = {0};
     st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign,
@@ -254,6 +277,16 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
     if (!st && !empty) st = warp_window(face, &mesh, &r, texture, NULL, &warped, &coverage);
     if (!st && !empty) st = hd_image_alloc(&region, r.width, r.height, 1);
     if (!st && !empty) {
+        size_t wplane = (size_t)r.width * r.height, pplane = (size_t)photo->width * photo->height;
+        if (mode == HD_WARP_CHANGE) /* source = photo + the warped change, where the face is */
+            for (int c = 0; c < photo->channels; c++)
+                for (int y = 0; y < r.height; y++)
+                    for (int x = 0; x < r.width; x++) {
+                        size_t i = (size_t)y * r.width + x;
+                        if (coverage.data[i] > 0.5f)
+                            warped.data[c * wplane + i] +=
+                                photo->data[c * pplane + (size_t)(y + r.y0) * photo->width + x + r.x0];
+                    }
         /* the region shrunk by one pixel (4-neighbourhood), so that every neighbour of a solved
          * pixel has a warped face value for the guidance field */
         for (int y = 1; y + 1 < r.height; y++)
@@ -267,6 +300,7 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
             }
         st = hd_poisson_blend(&warped, &region, r.x0, r.y0, tolerance, photo, report);
     }
+    hd_image_free(&change);
     hd_image_free(&warped);
     hd_image_free(&coverage);
     hd_image_free(&region);
