@@ -1,6 +1,11 @@
 /* face_landmarks.c: the face mesh model (MediaPipe face landmarks, TF.js graph, 192 x 192 RGB in
  * [0, 1], outputs 468 x (x, y, z) in crop pixels and a face-presence probability) on a rotated
- * crop of the photo, and the crop rules of MediaPipe's face landmark pipeline. */
+ * crop of the photo, and the crop rules of MediaPipe's face landmark pipeline.
+ * Input range [0, 1] as the TF.js port feeds it (pixel / 255); on the bundled photo [-1, 1] gives
+ * the same landmarks within a pixel, so the model is not sensitive to it. The crop's border is
+ * replicated (MediaPipe's BORDER_REPLICATE). The second pass (crop from the first pass's
+ * landmarks) is what MediaPipe does on the next video frame; on a still photo it centres the crop
+ * on the face rather than on the coarse detection box. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
