@@ -231,7 +231,6 @@ typedef struct wentry {
     int group;
     wtype type;
     float qmin, qscale;
-    int used;
 } wentry;
 
 typedef struct manifest {
@@ -776,6 +775,8 @@ static hd_status shape_placeholder(hd_tfjs_graph *g, tg_node *n, const cJSON *js
  * a buffer lives from the step that writes it to the last step that reads it (through aliases),
  * the graph's outputs to the end, and takes the lowest offset free for that whole span, so that
  * buffers whose lives do not overlap share memory. The im2col scratch comes first. */
+static size_t buffer_floats(const tg_node *n) { return align_floats(n->out.size ? n->out.size : 1); }
+
 static hd_status plan_arena(hd_tfjs_graph *g)
 {
     int nn = g->nnodes;
@@ -808,14 +809,14 @@ static hd_status plan_arena(hd_tfjs_graph *g)
         for (int l = 0; l < nlive; l++)
             if (last[live[l]] >= k) live[keep++] = live[l];
         nlive = keep;
-        size_t size = align_floats(n->out.size ? n->out.size : 1), best = SIZE_MAX;
+        size_t size = buffer_floats(n), best = SIZE_MAX;
         /* Candidate offsets: the base and the end of each live buffer; keep the lowest that fits. */
         for (int c = -1; c < nlive; c++) {
-            size_t at = c < 0 ? base : offset[live[c]] + align_floats(g->nodes[live[c]].out.size ? g->nodes[live[c]].out.size : 1);
+            size_t at = c < 0 ? base : offset[live[c]] + buffer_floats(&g->nodes[live[c]]);
             if (at >= best) continue;
             int clash = 0;
             for (int l = 0; l < nlive && !clash; l++) {
-                size_t lo = offset[live[l]], hi = lo + align_floats(g->nodes[live[l]].out.size ? g->nodes[live[l]].out.size : 1);
+                size_t lo = offset[live[l]], hi = lo + buffer_floats(&g->nodes[live[l]]);
                 clash = at < hi && lo < at + size;
             }
             if (!clash) best = at;
@@ -960,7 +961,6 @@ static hd_status build_graph(hd_tfjs_graph *g, const cJSON *root, manifest *m)
             goto done;
         }
         wentry *we = &m->w[w];
-        we->used = 1;
         const cJSON *tshape = cJSON_GetObjectItemCaseSensitive(
             cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(node_attr(js[i], "value"), "tensor"),
                                              "tensorShape"),
