@@ -1,13 +1,16 @@
 /* image_jpeg.c: JPEG reading through libjpeg(-turbo): gray and RGB (YCbCr decoded to RGB); CMYK
  * and other colour spaces are refused. libjpeg's fatal errors come to our error_exit, which
- * records the message and longjmps back; its warnings (corrupt or truncated data, which libjpeg
- * would otherwise paper over with gray) are collected and turned into an error at the end. */
+ * records the message and longjmps back. Its warnings that mean lost image data (a truncated file
+ * or a corrupt scan, which libjpeg would otherwise paper over with gray) are errors too, raised at
+ * once so that a truncated file claiming a huge size is not decoded to the end; harmless warnings
+ * (extraneous bytes before a marker, an unknown JFIF revision, a bad ICC marker) are ignored. */
 #include <errno.h>
 #include <setjmp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <jpeglib.h>
+#include <jerror.h>
 #include "core/core.h"
 #include "io/image_io.h"
 
@@ -15,8 +18,6 @@ typedef struct jpeg_context {
     struct jpeg_error_mgr mgr; /* first, so the error manager pointer is the context */
     jmp_buf jump;
     char reason[JMSG_LENGTH_MAX + 32];
-    int warnings;
-    char warning[JMSG_LENGTH_MAX];
 } jpeg_context;
 
 static void jpeg_on_error_exit(j_common_ptr cinfo)
@@ -26,12 +27,28 @@ static void jpeg_on_error_exit(j_common_ptr cinfo)
     longjmp(ctx->jump, 1);
 }
 
-/* level < 0: a warning (corrupt data); level >= 0: trace messages, ignored. */
+/* level < 0: a warning, fatal when it means lost pixels (libjpeg's jerror.c invites overriding
+ * this method to abort on warnings); level >= 0: trace messages, ignored. */
 static void jpeg_on_message(j_common_ptr cinfo, int level)
 {
     jpeg_context *ctx = (jpeg_context *)cinfo->err;
     if (level >= 0) return;
-    if (ctx->warnings++ == 0) (*cinfo->err->format_message)(cinfo, ctx->warning);
+    switch (cinfo->err->msg_code) {
+    case JWRN_JPEG_EOF:
+    case JWRN_HIT_MARKER:
+    case JWRN_HUFF_BAD_CODE:
+    case JWRN_ARITH_BAD_CODE:
+    case JWRN_MUST_RESYNC:
+    case JWRN_NOT_SEQUENTIAL:
+    case JWRN_BOGUS_PROGRESSION: {
+        char message[JMSG_LENGTH_MAX];
+        (*cinfo->err->format_message)(cinfo, message);
+        snprintf(ctx->reason, sizeof ctx->reason, "corrupt data: %s", message);
+        longjmp(ctx->jump, 1);
+    }
+    default:
+        return;
+    }
 }
 
 hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *info)
@@ -93,10 +110,6 @@ hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *inf
                 img->data[c * plane + (size_t)y * width + x] = (float)row[x * channels + c] / 255.0f;
     }
     jpeg_finish_decompress(&cinfo);
-    if (ctx.warnings > 0) {
-        snprintf(ctx.reason, sizeof ctx.reason, "corrupt data: %s", ctx.warning);
-        longjmp(ctx.jump, 1);
-    }
     info->format = "JPEG";
     info->width = width;
     info->height = height;

@@ -113,6 +113,7 @@ put("jpeg_cut_in_scan.jpg", good_jpeg[: sos_at + 14 + 20])
 put("jpeg_no_eoi_no_scan.jpg", good_jpeg[:sos_at])
 put("jpeg_sof_zero_size.jpg", jpeg(0, 0))
 put("jpeg_sof_huge.jpg", jpeg(60000, 60000, scan_bytes=bytes(16)))
+put("jpeg_huge_claim_cut.jpg", jpeg(16000, 16000, scan_bytes=bytes(16))[:-2])  # 16000^2 claimed, 16 bytes of scan
 garbage = bytearray(good_jpeg)
 sof_at = good_jpeg.index(b"\xFF\xC0")
 garbage[sof_at + 4: sof_at + 14] = b"\xEE" * 10  # precision, size and components all garbage
