@@ -285,6 +285,22 @@ static void test_jpeg(void)
     CHECK(hd_image_read("cut.jpg", &img) == HD_ERR_FORMAT);
     CHECK(strstr(hd_error(), "cut.jpg") != NULL);
     CHECK(img.data == NULL);
+
+    /* Junk bytes between header segments (before SOF0) only draw libjpeg's harmless
+     * "extraneous bytes before marker" warning: the image still reads. */
+    CHECK(hd_read_file("smooth.jpg", 1 << 20, &data, &size) == HD_OK);
+    size_t sof = 2;
+    while (sof + 1 < size && !((unsigned char)data[sof] == 0xFF && (unsigned char)data[sof + 1] == 0xC0)) sof++;
+    CHECK(sof + 1 < size);
+    f = fopen("junk.jpg", "wb");
+    fwrite(data, 1, sof, f);
+    fwrite("\x12\x34\x56", 1, 3, f);
+    fwrite(data + sof, 1, size - sof, f);
+    fclose(f);
+    free(data);
+    CHECK(hd_image_read("junk.jpg", &img) == HD_OK);
+    CHECK(img.width == w && img.height == h);
+    hd_image_free(&img);
 }
 
 static void test_pfm(void)
