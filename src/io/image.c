@@ -61,7 +61,9 @@ hd_status hd_image_read_info(const char *path, hd_image *img, hd_image_info *inf
     if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     unsigned char magic[8];
     size_t got = fread(magic, 1, sizeof magic, f);
+    int err = ferror(f) ? errno : 0;
     fclose(f);
+    if (err) return hd_fail(HD_ERR_IO, "%s: cannot read: %s", path, strerror(err));
     static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     if (got == 0) return hd_fail(HD_ERR_FORMAT, "%s: empty file, not an image", path);
     if (got >= 8 && memcmp(magic, png_sig, 8) == 0) return hd_image_read_png(path, img, info);

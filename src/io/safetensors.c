@@ -152,6 +152,10 @@ hd_status hd_safetensors_read(const char *path, hd_safetensors *st)
         status = hd_fail(HD_ERR_IO, "%s: cannot stat: %s", path, strerror(errno));
         goto done;
     }
+    if (!S_ISREG(sb.st_mode)) {
+        status = hd_fail(HD_ERR_IO, "%s: not a regular file", path);
+        goto done;
+    }
     uint64_t file_size = (uint64_t)sb.st_size;
     unsigned char len_bytes[8];
     if (file_size < 8 || fread(len_bytes, 1, 8, f) != 8) {
