@@ -2,7 +2,7 @@
 # synth_cli.sh: `hdnet synth` and `hdnet eval` from the command line: a tiny set has every SPEC
 # section 5 file and a preview; the same seed gives the same files; its ground truth, laid out as
 # `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
-# the baselines under it; bad options give the documented exit codes.
+# the baselines under it; a model is scored too; bad options give the documented exit codes.
 set -u
 fail() { echo "synth_cli: $*" >&2; exit 1; }
 # expect CODE PATTERN cmd...: runs cmd, checks its exit code and that stderr+stdout match PATTERN
@@ -42,6 +42,11 @@ grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 
     { cat out.txt >&2; fail "ground truth as a prediction is not a perfect score"; }
 grep -q '"images":	6' eval.json || fail "eval.json lacks the image count"
 grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfect light score"
+
+# a (random, tiny) model scored on the same set: every column of its row filled, the baselines unchanged
+expect 0 "wrote m.safetensors" "$HDNET" init --width 8 --size 32 --seed 1 -o m.safetensors
+expect 0 "^hdnet model " "$HDNET" eval set -m m.safetensors
+grep "^hdnet model" out.txt | grep -q -- " - " && { cat out.txt >&2; fail "the model's row has empty columns"; }
 
 # usage errors and failures
 expect 2 "subjects" "$HDNET" synth x --per-subject 2
