@@ -1,6 +1,7 @@
 /* error.c: the thread-local failure reason behind hd_error(), and the thread-count setting. */
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 #include <omp.h>
 #include "core/core.h"
 
@@ -8,10 +9,13 @@ static _Thread_local char error_text[1024];
 
 hd_status hd_fail(hd_status code, const char *fmt, ...)
 {
+    /* Formatted into a local buffer first: callers may pass hd_error() itself as an argument. */
+    char text[sizeof error_text];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(error_text, sizeof error_text, fmt, ap);
+    vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
+    memcpy(error_text, text, sizeof text);
     return code;
 }
 

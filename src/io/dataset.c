@@ -142,8 +142,15 @@ hd_status hd_dataset_scan(const char *dir, hd_dataset *ds, void (*warn)(const ch
     int direct = 0;
     for (int i = 0; i < n; i++) direct += is_image(names[i]);
     if (direct) {
-        const char *base = strrchr(dir, '/');
-        st = scan_subject(ds, &cap, dir, base && base[1] ? base + 1 : dir);
+        /* The subject is the folder's own name: "a/b/data/" and "./data" give "data". */
+        size_t len = strlen(dir);
+        while (len > 1 && dir[len - 1] == '/') len--;
+        size_t start = len;
+        while (start > 0 && dir[start - 1] != '/') start--;
+        char *subject = strndup(dir + start, len - start);
+        if (!subject) st = hd_fail(HD_ERR_NOMEM, "out of memory scanning %s", dir);
+        else st = scan_subject(ds, &cap, dir, strcmp(subject, ".") == 0 || !*subject ? "images" : subject);
+        free(subject);
     }
     for (int i = 0; i < n && st == HD_OK; i++) {
         char *sub = hd_path_join(dir, names[i]);
