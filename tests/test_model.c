@@ -249,25 +249,24 @@ static int write_dataset(const char *dir, int size)
 {
     hd_pair_batch b;
     if (hd_pair_batch_alloc(&b, 2, size) != HD_OK) return 0;
-    make_pair(&b, 0, 0);
-    make_pair(&b, 1, 1);
     size_t HW = (size_t)size * size;
     char path[256];
     int ok = 1;
-    for (int k = 0; k < 4 && ok; k++) {
-        snprintf(path, sizeof path, "%s/person%d", dir, k / 2);
+    /* two persons of four images each (the i and j of two synthetic pairs) */
+    for (int person = 0; person < 2 && ok; person++) {
+        make_pair(&b, 0, 2u * person);
+        make_pair(&b, 1, 2u * person + 1);
+        snprintf(path, sizeof path, "%s/person%d", dir, person);
         ok = hd_mkdirs(path) == HD_OK;
-        /* three images in person0 (from both pairs' lights), two in person1 */
-        for (int v = 0; v < 2 && ok; v++) {
-            int slot = (k % 2) * 2 + v;
+        for (int slot = 0; slot < 4 && ok; slot++) {
             hd_image img = {size, size, 3, b.image + (size_t)slot * 3 * HW};
             hd_image mask = {size, size, 1, b.mask + (size_t)slot * HW};
             hd_image nrm = {size, size, 3, b.coarse_normal + (size_t)slot * 3 * HW}, enc = {0};
-            snprintf(path, sizeof path, "%s/person%d/img%d.png", dir, k / 2, (k % 2) * 2 + v);
+            snprintf(path, sizeof path, "%s/person%d/img%d.png", dir, person, slot);
             ok = ok && hd_image_write_png(path, &img, 8) == HD_OK;
-            snprintf(path, sizeof path, "%s/person%d/img%d.mask.png", dir, k / 2, (k % 2) * 2 + v);
+            snprintf(path, sizeof path, "%s/person%d/img%d.mask.png", dir, person, slot);
             ok = ok && hd_image_write_png(path, &mask, 8) == HD_OK;
-            snprintf(path, sizeof path, "%s/person%d/img%d.normal.png", dir, k / 2, (k % 2) * 2 + v);
+            snprintf(path, sizeof path, "%s/person%d/img%d.normal.png", dir, person, slot);
             ok = ok && hd_normal_encode(&nrm, &mask, &enc) == HD_OK && hd_image_write_png(path, &enc, 16) == HD_OK;
             hd_image_free(&enc);
         }
@@ -305,6 +304,107 @@ static char *loss_rows(const char *path)
     }
     free(data);
     return out;
+}
+
+/* Largest difference between plane a and plane b (S x S), b mirrored left-right if flip. */
+static float plane_diff(const float *a, const float *b, int S, int flip, float sign)
+{
+    float d = 0;
+    for (int y = 0; y < S; y++)
+        for (int x = 0; x < S; x++) {
+            float v = sign * b[(size_t)y * S + (flip ? S - 1 - x : x)];
+            d = fmaxf(d, fabsf(a[(size_t)y * S + x] - v));
+        }
+    return d;
+}
+
+/* The batch a run trains on is made of the set's images, each pair from one person, flipped
+ * together: image, mask and coarse normals mirrored, the normals' x negated. Checked on the
+ * gradient dump (the batch as the networks saw it) of a few seeds until both cases showed. */
+static void test_augmentation(void)
+{
+    enum { S = 32, NIMG = 4 };
+    size_t HW = (size_t)S * S;
+    hd_image img[2][NIMG], nrm[2][NIMG], msk[2][NIMG];
+    char path[128];
+    int ok = 1;
+    for (int p = 0; p < 2; p++)
+        for (int k = 0; k < NIMG; k++) {
+            hd_image raw = {0}, valid = {0};
+            memset(&img[p][k], 0, sizeof(hd_image));
+            memset(&nrm[p][k], 0, sizeof(hd_image));
+            memset(&msk[p][k], 0, sizeof(hd_image));
+            snprintf(path, sizeof path, "data/person%d/img%d.png", p, k);
+            ok = ok && hd_image_read_as(path, 3, &img[p][k]) == HD_OK;
+            snprintf(path, sizeof path, "data/person%d/img%d.mask.png", p, k);
+            ok = ok && hd_image_read_as(path, 1, &msk[p][k]) == HD_OK;
+            snprintf(path, sizeof path, "data/person%d/img%d.normal.png", p, k);
+            ok = ok && hd_image_read_as(path, 3, &raw) == HD_OK && hd_normal_decode(&raw, &nrm[p][k], &valid) == HD_OK;
+            hd_image_free(&raw);
+            hd_image_free(&valid);
+        }
+    CHECK(ok);
+    int seen_flip = 0, seen_plain = 0;
+    for (int seed = 1; seed <= 12 && ok && !(seen_flip && seen_plain); seed++) {
+        hd_train_options o;
+        hd_train_result r;
+        char run[32];
+        snprintf(run, sizeof run, "aug%d", seed);
+        run_options(&o, run, 1);
+        o.seed = (uint64_t)seed;
+        o.dump_grads = "aug.safetensors";
+        if (hd_train(&o, &r) != HD_OK) {
+            fprintf(stderr, "augmentation run: %s\n", hd_error());
+            test_failures++;
+            break;
+        }
+        hd_safetensors st = {0};
+        CHECK(hd_safetensors_read("aug.safetensors", &st) == HD_OK);
+        const hd_tensor *bi = hd_safetensors_find(&st, "batch.image"), *bm = hd_safetensors_find(&st, "batch.mask");
+        const hd_tensor *bn = hd_safetensors_find(&st, "batch.coarse_normal");
+        if (!bi || !bm || !bn) {
+            test_failures++;
+            hd_safetensors_free(&st);
+            break;
+        }
+        for (int pair = 0; pair < 2; pair++) {
+            int who[2] = {-1, -1}, flip[2] = {-1, -1};
+            for (int e = 0; e < 2; e++) {
+                int b = 2 * pair + e;
+                for (int p = 0; p < 2; p++)
+                    for (int k = 0; k < NIMG; k++)
+                        for (int f = 0; f < 2; f++) {
+                            if (!img[p][k].data || who[e] >= 0) continue;
+                            float d = 0;
+                            for (int c = 0; c < 3; c++)
+                                d = fmaxf(d, plane_diff(bi->data + ((size_t)b * 3 + c) * HW, img[p][k].data + c * HW, S, f, 1));
+                            if (d > 1e-6f) continue;
+                            who[e] = p * NIMG + k;
+                            flip[e] = f;
+                            float dm = plane_diff(bm->data + (size_t)b * HW, msk[p][k].data, S, f, 1);
+                            float dn = 0;
+                            for (int c = 0; c < 3; c++)
+                                dn = fmaxf(dn, plane_diff(bn->data + ((size_t)b * 3 + c) * HW, nrm[p][k].data + c * HW, S, f,
+                                                          c == 0 && f ? -1.0f : 1.0f));
+                            CHECK(dm < 1e-6f); /* binary masks, normals stored inside them */
+                            CHECK(dn < 1e-5f);
+                        }
+                CHECK(who[e] >= 0);
+            }
+            CHECK(who[0] / NIMG == who[1] / NIMG && who[0] != who[1]); /* one person, two images */
+            CHECK(flip[0] == flip[1]);                                 /* flipped together */
+            seen_flip |= flip[0] == 1;
+            seen_plain |= flip[0] == 0;
+        }
+        hd_safetensors_free(&st);
+    }
+    CHECK(seen_flip && seen_plain);
+    for (int p = 0; p < 2; p++)
+        for (int k = 0; k < NIMG; k++) {
+            hd_image_free(&img[p][k]);
+            hd_image_free(&nrm[p][k]);
+            hd_image_free(&msk[p][k]);
+        }
 }
 
 static void test_resume_and_errors(void)
@@ -450,6 +550,7 @@ int main(void)
     fprintf(stderr, "overfit %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();
     test_resume_and_errors();
+    test_augmentation();
     fprintf(stderr, "runs %.1f s\n", hd_seconds() - t0);
     return test_summary("test_model");
 }
