@@ -220,7 +220,7 @@ hd_status hd_image_resize(const hd_image *src, int width, int height, hd_image *
     }
     /* Horizontal pass: src (C, H, W) -> tmp (C, H, width). */
     int rows = src->channels * src->height;
-#pragma omp parallel for schedule(static) if (rows * width > 65536)
+#pragma omp parallel for schedule(static) if ((long)rows * width > 65536)
     for (int r = 0; r < rows; r++) {
         const float *s = src->data + (size_t)r * src->width;
         float *d = tmp.data + (size_t)r * width;
@@ -232,7 +232,7 @@ hd_status hd_image_resize(const hd_image *src, int width, int height, hd_image *
     }
     /* Vertical pass: tmp (C, H, width) -> out (C, height, width). */
     int orows = src->channels * height;
-#pragma omp parallel for schedule(static) if (orows * width > 65536)
+#pragma omp parallel for schedule(static) if ((long)orows * width > 65536)
     for (int r = 0; r < orows; r++) {
         int c = r / height, y = r % height;
         float *d = out.data + (size_t)r * width;
