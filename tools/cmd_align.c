@@ -130,7 +130,7 @@ int cmd_align(int argc, char **argv)
         goto done;
     }
     int faces_written = 0, no_face = 0, unreadable = 0;
-    if (hd_aligner_load(&aligner)) {
+    if (hd_mkdirs(out_dir) || hd_aligner_load(&aligner)) { /* an unwritable -o fails before any work */
         hd_report("align");
         goto done;
     }
