@@ -256,6 +256,34 @@ hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[
 hd_status hd_face_mask_read(const char *image_path, const char *fallback, int width, int height,
                             hd_image *mask, char **source);
 
+/* Photos and aligned textures (src/apply/photo.c, docs/usage.md). The commands take a photograph
+ * by default and an aligned texture with --aligned, or when the file has an aligned companion
+ * (NAME.mask.png or NAME.normal.png) beside it. */
+typedef enum hd_input_kind { HD_INPUT_PHOTO = 0, HD_INPUT_TEXTURE } hd_input_kind;
+hd_input_kind hd_input_kind_of(const char *path);
+
+/* Faces of a photo are unwarped at max(HD_PHOTO_TEXTURE_SIZE, model size) texels a side, so the
+ * relit texture keeps more detail than the model's own size. */
+#define HD_PHOTO_TEXTURE_SIZE 256
+struct hd_aligned_face;
+typedef struct hd_aligner hd_aligner;
+int hd_photo_texture_size(const hd_model *model);
+/* Every face of `photo` aligned at hd_photo_texture_size (hd_aligner_run); no face at all is
+ * HD_ERR_NOTFOUND ("no face found"). Free with hd_aligned_faces_free. */
+hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_image *photo,
+                         struct hd_aligned_face **faces, int *count);
+/* Relights every face of a photo (3 channels) under each of `count` lights (count may be 0): per
+ * face, one decomposition of its texture, hd_relight inside the face's mask, then the relit
+ * texture warped back and Poisson-blended into relit[i] (a copy of the photo; HD_WARP_CHANGE).
+ * delit (may be NULL) gets the delit faces likewise. *nfaces (may be NULL) gets the faces done.
+ * No face: HD_ERR_NOTFOUND and nothing allocated. Pixels outside the faces keep the photo exactly. */
+hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                           const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness,
+                           hd_image *relit, hd_image *delit, int *nfaces);
+/* The light the model estimates for the best-scoring face of a photo (its aligned texture). */
+hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                                  float light[HD_SH_COEFFS], int *nfaces);
+
 /* Contact sheets: a grid of square cells separated by plain borders, written as an 8-bit RGB PNG.
  * Each picture is resized to the cell (area down, bilinear up). */
 typedef enum hd_sheet_kind {
@@ -480,7 +508,8 @@ typedef struct hd_poisson_report {
 
 /* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
  * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
- * lie strictly inside the target, solves  Laplacian(f) = Laplacian(source)  with f = target on
+ * lie strictly inside both the source and the target (their 4 neighbours exist in both; the
+ * others count as boundary), solves  Laplacian(f) = Laplacian(source)  with f = target on
  * the region's boundary (5-point stencil, source differences as the guidance field), in place in
  * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
  * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
