@@ -90,7 +90,7 @@ static void test_shade_grad(void)
 static int tiny_trainer(hd_trainer *t, int width, int size, int pairs)
 {
     hd_net_config cfg = {width, size};
-    if (hd_trainer_create(t, &cfg, pairs, 7) != HD_OK) {
+    if (hd_trainer_create(t, &cfg, pairs, 0, 7) != HD_OK) {
         fprintf(stderr, "trainer: %s\n", hd_error());
         test_failures++;
         return 0;
@@ -210,6 +210,49 @@ static void test_gradients(void)
     t.weights = all;
     check_gradients(&t, "discriminator", 1, 0, 3e-4f);
     hd_trainer_free(&t);
+}
+
+/* ---- micro-batches: the same losses and gradients as the whole batch at once */
+
+static void test_micro_batch(void)
+{
+    hd_net_config cfg = {4, 32};
+    hd_trainer whole, micro, bad;
+    CHECK(hd_trainer_create(&bad, &cfg, 3, 2, 9) != HD_OK && strstr(hd_error(), "divide"));
+    if (hd_trainer_create(&whole, &cfg, 2, 0, 9) != HD_OK) {
+        fprintf(stderr, "trainer: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    if (hd_trainer_create(&micro, &cfg, 2, 1, 9) != HD_OK) {
+        fprintf(stderr, "trainer: %s\n", hd_error());
+        test_failures++;
+        hd_trainer_free(&whole);
+        return;
+    }
+    for (int p = 0; p < 2; p++) {
+        make_pair(&whole.batch, p, (unsigned)p + 3);
+        make_pair(&micro.batch, p, (unsigned)p + 3);
+    }
+    hd_step_result a, b;
+    CHECK(hd_trainer_eval(&whole, &a, HD_EVAL_GRAD | HD_EVAL_DISC_GRAD) == HD_OK);
+    CHECK(hd_trainer_eval(&micro, &b, HD_EVAL_GRAD | HD_EVAL_DISC_GRAD) == HD_OK);
+    CHECK_NEAR(a.total, b.total, 1e-5 * fabs(a.total));
+    CHECK_NEAR(a.disc, b.disc, 1e-5 * fabs(a.disc));
+    for (int k = 0; k < HD_LOSS_TERMS; k++) CHECK_NEAR(a.terms[k], b.terms[k], 1e-5 * fabs(a.terms[k]) + 1e-9);
+    double gmax = 0, dmax = 0, gdiff = 0, ddiff = 0;
+    for (size_t i = 0; i < whole.net.table.total; i++) {
+        gmax = fmax(gmax, fabs(whole.net.grads[i]));
+        gdiff = fmax(gdiff, fabs(whole.net.grads[i] - micro.net.grads[i]));
+    }
+    for (size_t i = 0; i < whole.net.disc_table.total; i++) {
+        dmax = fmax(dmax, fabs(whole.net.disc_grads[i]));
+        ddiff = fmax(ddiff, fabs(whole.net.disc_grads[i] - micro.net.disc_grads[i]));
+    }
+    CHECK(gmax > 0 && gdiff <= 1e-4 * gmax);
+    CHECK(dmax > 0 && ddiff <= 1e-4 * dmax);
+    hd_trainer_free(&whole);
+    hd_trainer_free(&micro);
 }
 
 /* ---- a tiny pair overfits */
@@ -543,6 +586,7 @@ int main(void)
     test_param_counts();
     test_shade_grad();
     double t0 = hd_seconds();
+    test_micro_batch();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();

@@ -45,6 +45,12 @@ expect 0 $H train data -o run $T --iters 6 --every 2 --resume
 expect 0 $H train data -o straight $T --iters 6 --every 2
 [ "$(losses run/loss.csv)" = "$(losses straight/loss.csv)" ] || fail "resumed losses differ from an uninterrupted run"
 
+# micro-batches: the same run in two forward passes per iteration, resumed with the same split
+expect 0 $H train data -o micro $T --batch 2 --micro-batch 1 --iters 2 --every 2
+expect 0 $H train data -o micro --threads 1 -q --iters 3 --every 2 --resume
+[ "$(wc -l < micro/loss.csv)" = 4 ] || fail "micro-batch run: loss.csv should have 3 rows"
+expect 2 $H train data -o y $T --batch 2 --micro-batch -1
+
 # the trained model decomposes (when the command is there)
 if $H help | grep -q '^  decompose '; then
     expect 0 $H decompose data/subject_0000/0000.png -m run/model.safetensors -o dec

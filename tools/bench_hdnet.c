@@ -76,7 +76,7 @@ int bench_hdnet(const bench_args *a)
 
     /* training step at a->batch pairs */
     int pairs = images;
-    if (hd_trainer_create(&t, &cfg, pairs, 1) != HD_OK) goto fail;
+    if (hd_trainer_create(&t, &cfg, pairs, 0, 1) != HD_OK) goto fail;
     fill_batch(&t.batch);
     hd_step_result res;
     if (hd_trainer_step(&t, &res, NULL) != HD_OK) goto fail; /* warm-up */
@@ -93,7 +93,7 @@ int bench_hdnet(const bench_args *a)
     getrusage(RUSAGE_SELF, &ru);
     /* the paper's batch of 8 pairs: allocated, not run */
     size_t train8_bytes = 0;
-    if (hd_trainer_create(&t, &cfg, 8, 1) == HD_OK) train8_bytes = training_bytes(&t);
+    if (hd_trainer_create(&t, &cfg, 8, 0, 1) == HD_OK) train8_bytes = training_bytes(&t);
     hd_trainer_free(&t);
 
     double per_image = fwd / images, per_pair = step / pairs;

@@ -24,7 +24,7 @@ int cmd_train(int argc, char **argv)
 {
     const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL;
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
-    int lnet_iters = -1, quiet = 0;
+    int lnet_iters = -1, quiet = 0, micro = 0;
     float time_limit = 0, lr = 0;
     float w[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) w[k] = NAN;
@@ -34,6 +34,7 @@ int cmd_train(int argc, char **argv)
         {"iters", 0, HD_OPT_INT, &iters, "N", "iterations of this run in total, counting resumed ones (default 1000)"},
         {"lnet-iters", 0, HD_OPT_INT, &lnet_iters, "N", "stage 2: iterations training L-Net only first (default iters/5)"},
         {"batch", 0, HD_OPT_INT, &batch, "B", "pairs per iteration (default 8, or the checkpoint's)"},
+        {"micro-batch", 0, HD_OPT_INT, &micro, "M", "pairs per forward pass, dividing B: same gradient, less memory"},
         {"size", 0, HD_OPT_INT, &size, "S", "model input side, a multiple of 32 (default 256, or the checkpoint's)"},
         {"width", 0, HD_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
         {"resume", 0, HD_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},
@@ -74,7 +75,7 @@ int cmd_train(int argc, char **argv)
     if (stage != 1 && stage != 2) return hd_usage_error(&spec, "--stage must be 1 or 2");
     if (iters < 1) return hd_usage_error(&spec, "--iters must be positive");
     if (every < 1) return hd_usage_error(&spec, "--every must be positive");
-    if (batch < 0 || size < 0 || width < 0 || threads < 0 || seed < 0 || time_limit < 0 || lr < 0)
+    if (batch < 0 || micro < 0 || size < 0 || width < 0 || threads < 0 || seed < 0 || time_limit < 0 || lr < 0)
         return hd_usage_error(&spec, "sizes, counts, the seed, the time limit and the learning rate must not be negative");
     if (size && size % 32) return hd_usage_error(&spec, "--size must be a multiple of 32");
     if (resume && init) return hd_usage_error(&spec, "--resume and --init exclude each other");
@@ -93,6 +94,7 @@ int cmd_train(int argc, char **argv)
     o.iters = iters;
     o.lnet_iters = lnet_iters;
     o.batch = batch;
+    o.micro_batch = micro;
     o.size = size;
     o.width = width;
     o.resume = resume;

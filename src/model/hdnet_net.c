@@ -315,8 +315,13 @@ void hd_net_forward(hd_net *net)
 
 void hd_net_zero_grad(hd_net *net)
 {
-    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     memset(net->grads, 0, net->table.total * sizeof(float));
+    hd_net_zero_act_grad(net);
+}
+
+void hd_net_zero_act_grad(hd_net *net)
+{
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     memset(net->d_albedo, 0, B * 3 * HW * sizeof(float));
     memset(net->d_shading, 0, B * HW * sizeof(float));
     memset(net->d_normal, 0, B * 3 * HW * sizeof(float));

@@ -110,6 +110,8 @@ void hd_net_forward(hd_net *net);
 /* Zeroes the HD-Net parameter gradients and the activation gradients d_albedo, d_shading,
  * d_normal, d_light (which the losses then accumulate into). */
 void hd_net_zero_grad(hd_net *net);
+/* Zeroes only the activation gradients (between micro-batches whose parameter gradients add up). */
+void hd_net_zero_act_grad(hd_net *net);
 /* Backward from d_albedo, d_shading, d_normal, d_light into net->grads, with SPEC section 4's
  * paths: the N-Net input S is detached; with HD_TRAIN_LNET only l_net receives gradients.
  * The activation gradients are consumed (overwritten). */

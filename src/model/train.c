@@ -28,11 +28,15 @@ void hd_train_init_params(const hd_net_config *cfg, uint64_t seed, float *params
     if (disc_params) hd_params_init(&d, disc_params, &rng);
 }
 
-hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, uint64_t seed)
+hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, int micro, uint64_t seed)
 {
     memset(t, 0, sizeof *t);
     if (pairs < 1 || pairs > 1024) return hd_fail(HD_ERR_RANGE, "batch of %d pairs is out of range (1..1024)", pairs);
-    hd_status s = hd_net_create(&t->net, cfg, 2 * pairs, HD_NET_TRAIN, HD_CONV_AUTO);
+    if (micro <= 0) micro = pairs;
+    if (micro > pairs || pairs % micro)
+        return hd_fail(HD_ERR_ARG, "a micro-batch of %d pairs does not divide the batch of %d pairs", micro, pairs);
+    t->micro = micro;
+    hd_status s = hd_net_create(&t->net, cfg, 2 * micro, HD_NET_TRAIN, HD_CONV_AUTO);
     if (s != HD_OK) return s;
     if ((s = hd_losses_create(&t->losses, &t->net)) != HD_OK || (s = hd_pair_batch_alloc(&t->batch, pairs, cfg->size)) != HD_OK)
         goto fail;
@@ -74,33 +78,56 @@ hd_net_train_set hd_trainer_phase(const hd_trainer *t, long it)
     return t->stage == 2 && it < t->lnet_iters ? HD_TRAIN_LNET : HD_TRAIN_ALL;
 }
 
+/* The view of micro-batch c of the trainer's batch. */
+static hd_pair_batch chunk_of(const hd_trainer *t, int c)
+{
+    const hd_pair_batch *b = &t->batch;
+    size_t first = (size_t)2 * c * t->micro, HW = (size_t)b->size * b->size;
+    hd_pair_batch v = {t->micro, b->size, b->image + first * 3 * HW, b->mask + first * HW,
+                       b->coarse_normal + first * 3 * HW, b->has_normal + first};
+    return v;
+}
+
 hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
 {
     hd_net *net = &t->net;
     size_t n = (size_t)net->B * 3 * net->H * net->W;
-    int grad = what & HD_EVAL_GRAD;
-    memcpy(net->input, t->batch.image, n * sizeof(float));
-    hd_net_forward(net);
-    hd_net_zero_grad(net);
-    hd_status s = hd_losses_prepare(&t->losses, &t->batch, t->stage == 1 ? HD_LIGHT_FROM_COARSE : HD_LIGHT_FROM_PREDICTED);
-    if (s != HD_OK) {
-        char why[400];
-        snprintf(why, sizeof why, "%s", hd_error());
-        return hd_fail(s, "loss term 'light' (its least-squares target) failed at iteration %ld: %s", t->iteration + 1, why);
+    int grad = what & HD_EVAL_GRAD, chunks = t->batch.pairs / t->micro;
+    int disc = what & (HD_EVAL_DISC | HD_EVAL_DISC_GRAD);
+    /* a batch term is the mean over pairs = the mean over micro-batches of their means */
+    float part = 1.0f / (float)chunks;
+    hd_loss_weights w = t->weights;
+    for (int k = 0; k < HD_LOSS_TERMS; k++) w.w[k] *= part;
+    memset(r, 0, sizeof *r);
+    if (grad) memset(net->grads, 0, net->table.total * sizeof(float));
+    if (what & HD_EVAL_DISC_GRAD) memset(net->disc_grads, 0, net->disc_table.total * sizeof(float));
+    for (int c = 0; c < chunks; c++) {
+        t->chunk = chunk_of(t, c);
+        memcpy(net->input, t->chunk.image, n * sizeof(float));
+        hd_net_forward(net);
+        hd_net_zero_act_grad(net);
+        hd_status s = hd_losses_prepare(&t->losses, &t->chunk, t->stage == 1 ? HD_LIGHT_FROM_COARSE : HD_LIGHT_FROM_PREDICTED);
+        if (s != HD_OK) {
+            char why[400];
+            snprintf(why, sizeof why, "%s", hd_error());
+            return hd_fail(s, "loss term 'light' (its least-squares target) failed at iteration %ld: %s", t->iteration + 1, why);
+        }
+        double terms[HD_LOSS_TERMS];
+        r->total += hd_losses_generator(&t->losses, &w, terms, grad);
+        for (int k = 0; k < HD_LOSS_TERMS; k++) {
+            if (!isfinite(terms[k]))
+                return hd_fail(HD_ERR_NUMERIC, "loss term '%s' is %s at iteration %ld", hd_loss_names[k],
+                               isnan(terms[k]) ? "NaN" : "infinite", t->iteration + 1);
+            r->terms[k] += terms[k] * part;
+        }
+        if (grad) hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+        if (!disc) continue;
+        double d = hd_loss_discriminator(&t->losses, what & HD_EVAL_DISC_GRAD ? part : 0.0f);
+        if (!isfinite(d))
+            return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(d) ? "NaN" : "infinite",
+                           t->iteration + 1);
+        r->disc += d * part;
     }
-    r->total = hd_losses_generator(&t->losses, &t->weights, r->terms, grad);
-    for (int k = 0; k < HD_LOSS_TERMS; k++)
-        if (!isfinite(r->terms[k]))
-            return hd_fail(HD_ERR_NUMERIC, "loss term '%s' is %s at iteration %ld", hd_loss_names[k],
-                           isnan(r->terms[k]) ? "NaN" : "infinite", t->iteration + 1);
-    if (grad) hd_net_backward(net, hd_trainer_phase(t, t->iteration));
-    r->disc = 0;
-    if (!(what & (HD_EVAL_DISC | HD_EVAL_DISC_GRAD))) return HD_OK;
-    memset(net->disc_grads, 0, net->disc_table.total * sizeof(float));
-    r->disc = hd_loss_discriminator(&t->losses, what & HD_EVAL_DISC_GRAD ? 1.0f : 0.0f);
-    if (!isfinite(r->disc))
-        return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(r->disc) ? "NaN" : "infinite",
-                       t->iteration + 1);
     return HD_OK;
 }
 
@@ -152,6 +179,7 @@ static void trainer_meta(const hd_trainer *t, hd_meta *m)
     hd_meta_set(m, "stage", "%d", t->stage);
     hd_meta_set(m, "iteration", "%ld", t->iteration);
     hd_meta_set(m, "batch", "%d", t->batch.pairs);
+    hd_meta_set(m, "micro_batch", "%d", t->micro);
     hd_meta_set(m, "seed", "%llu", (unsigned long long)t->seed);
     hd_meta_set(m, "rng_state", "%llu", (unsigned long long)t->rng.state);
     hd_meta_set(m, "rng_inc", "%llu", (unsigned long long)t->rng.inc);
@@ -265,14 +293,17 @@ static hd_status write_dump(const hd_trainer *t, const hd_step_result *r, const 
         ts[n].data = (float *)(ptr);                                                          \
         n++;                                                                                  \
     } while (0)
-    ADD("batch.image", t->batch.image, 4, B, 3, H, W);
-    ADD("batch.mask", t->batch.mask, 4, B, 1, H, W);
-    ADD("batch.coarse_normal", t->batch.coarse_normal, 4, B, 3, H, W);
-    ADD("out.albedo", net->albedo, 4, B, 3, H, W);
-    ADD("out.shading", net->shading, 4, B, 1, H, W);
-    ADD("out.normal", net->normal, 4, B, 3, H, W);
-    ADD("out.light", net->light, 2, B, HD_SH_COEFFS, 0, 0);
-    ADD("out.light_hat", t->losses.light_hat, 2, B, HD_SH_COEFFS, 0, 0);
+    int BB = 2 * t->batch.pairs;
+    ADD("batch.image", t->batch.image, 4, BB, 3, H, W);
+    ADD("batch.mask", t->batch.mask, 4, BB, 1, H, W);
+    ADD("batch.coarse_normal", t->batch.coarse_normal, 4, BB, 3, H, W);
+    if (t->micro == t->batch.pairs) { /* the outputs of the whole batch are at hand */
+        ADD("out.albedo", net->albedo, 4, B, 3, H, W);
+        ADD("out.shading", net->shading, 4, B, 1, H, W);
+        ADD("out.normal", net->normal, 4, B, 3, H, W);
+        ADD("out.light", net->light, 2, B, HD_SH_COEFFS, 0, 0);
+        ADD("out.light_hat", t->losses.light_hat, 2, B, HD_SH_COEFFS, 0, 0);
+    }
     char nm[160];
     for (int k = 0; k < HD_LOSS_TERMS; k++) {
         scalars[k] = (float)r->terms[k];
@@ -689,9 +720,9 @@ static hd_status write_samples(const char *path, const hd_trainer *t)
         return HD_ERR_NOMEM;
     }
     for (int r = 0; r < rows; r++) {
-        const float *I = t->batch.image + (size_t)r * 3 * HW, *A = net->albedo + (size_t)r * 3 * HW;
+        const float *I = t->chunk.image + (size_t)r * 3 * HW, *A = net->albedo + (size_t)r * 3 * HW;
         const float *Sh = net->shading + (size_t)r * HW, *N = net->normal + (size_t)r * 3 * HW;
-        const float *m = t->batch.mask + (size_t)r * HW;
+        const float *m = t->chunk.mask + (size_t)r * HW;
         hd_sh_shading_map(N, NULL, (int)HW, net->light + (size_t)(r ^ 1) * HD_SH_COEFFS, relit_s);
         for (int col = 0; col < cols; col++)
             for (int c = 0; c < 3; c++)
@@ -780,7 +811,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
 
     /* The configuration: options, else the checkpoint's (resume) or the init model's, else defaults. */
     hd_net_config cfg = {o->width, o->size};
-    int batch = o->batch;
+    int batch = o->batch, micro = o->micro_batch;
     uint64_t seed = o->seed;
     if (o->resume) {
         hd_safetensors st = {0};
@@ -795,6 +826,8 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         s = hd_checkpoint_config(&st, ckpt, &c);
         if (s == HD_OK) s = hd_checkpoint_meta_long(&st, ckpt, "batch", &b);
         if (s == HD_OK) s = hd_checkpoint_meta_long(&st, ckpt, "seed", &sd);
+        const char *mb = hd_safetensors_meta(&st, "micro_batch");
+        if (!micro && mb && !batch) micro = atoi(mb); /* the same split sums in the same order */
         hd_safetensors_free(&st);
         if (s != HD_OK) goto done;
         if (!cfg.width) cfg.width = c.width;
@@ -816,7 +849,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     if (!batch) batch = 8;
     if ((s = hd_net_config_check(&cfg)) != HD_OK) goto done;
 
-    if ((s = hd_trainer_create(&t, &cfg, batch, seed)) != HD_OK) goto done;
+    if ((s = hd_trainer_create(&t, &cfg, batch, micro, seed)) != HD_OK) goto done;
     t.weights = o->weights;
     t.stage = o->stage;
     t.lr = o->lr > 0 ? o->lr : o->stage == 1 ? 1e-3f : 1e-4f;

@@ -18,6 +18,8 @@ typedef struct hd_trainer {
     hd_net net;
     hd_losses losses;
     hd_pair_batch batch; /* what the next step trains on (filled by the caller or the loader) */
+    int micro;           /* pairs per forward pass (divides batch.pairs): the network holds 2 micro images */
+    hd_pair_batch chunk; /* view of the micro-batch the network saw last (points into batch) */
     float *adam_m, *adam_v;           /* (net.table.total) */
     float *disc_adam_m, *disc_adam_v; /* (net.disc_table.total) */
     long adam_t, disc_adam_t;         /* Adam steps taken (bias correction) */
@@ -37,9 +39,11 @@ typedef struct hd_step_result {
     double total, disc;
 } hd_step_result;
 
-/* Makes a trainer for batches of `pairs` pairs, with parameters initialised from seed
- * (hd_train_init_params). */
-hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, uint64_t seed);
+/* Makes a trainer for batches of `pairs` pairs, run through the network `micro` pairs at a time
+ * (0: all at once; else it must divide pairs), with parameters initialised from seed
+ * (hd_train_init_params). Every loss is a mean over pairs, so micro-batches accumulate exactly
+ * the gradient of the whole batch (up to the order of float sums) in less memory. */
+hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, int micro, uint64_t seed);
 void hd_trainer_free(hd_trainer *t);
 /* Initialises HD-Net and discriminator parameters exactly as a run with this seed does. */
 void hd_train_init_params(const hd_net_config *cfg, uint64_t seed, float *params, float *disc_params);
@@ -78,6 +82,7 @@ typedef struct hd_train_options {
     long iters;            /* iterations of this stage's run in total */
     long lnet_iters;       /* stage 2: phase 2a length; < 0: iters / 5 */
     int batch;             /* pairs; 0: 8 (or the checkpoint's) */
+    int micro_batch;       /* pairs per forward pass; 0: the whole batch (or the checkpoint's) */
     int size, width;       /* 0: 256 / 48 (or the checkpoint's / the init model's) */
     int resume;
     double time_limit_min; /* 0: none */
