@@ -1,6 +1,7 @@
 #!/bin/sh
 # apply_cli.sh: the commands that use a model (decompose, relight, transfer, delight,
-# estimate-light) on tiny inputs with a tiny freshly initialised model: outputs and their layout,
+# estimate-light) on tiny inputs with a tiny freshly initialised model, all in aligned-texture mode
+# (--aligned; photos are tests/photo_cli.sh's): outputs and their layout,
 # transfer = estimate-light + relight --light (byte for byte), usage errors (exit 2), and missing
 # or broken models and images (exit 1, naming the file). Runs in a scratch folder.
 set -u
@@ -42,7 +43,7 @@ if ! grep -q '^  init ' help.txt; then
 fi
 
 expect 0 "$HDNET" init --width 4 --size 32 --seed 1 -o m.safetensors
-M="-m m.safetensors"
+M="-m m.safetensors --aligned"
 
 # Inputs: a 512 x 512 photo, a 40 x 40 sphere picture, a 4 x 4 gray PFM, a folder of subjects
 # with a mask companion and one broken image.
@@ -136,10 +137,10 @@ err_names no/such/dir/x.png
 
 # without -m: the shipped model, or a clear error naming it while it is not there
 if [ -f "$here/../models/hdnet-synth.safetensors" ]; then
-    expect 0 "$HDNET" delight small.png -o d_default.png
+    expect 0 "$HDNET" delight small.png --aligned -o d_default.png
     exists d_default.png
 else
-    expect 1 "$HDNET" delight small.png -o x.png
+    expect 1 "$HDNET" delight small.png --aligned -o x.png
     err_names "default model"
 fi
 
@@ -151,7 +152,7 @@ if [ -d "$broken" ]; then
     for f in "$broken"/*.png "$broken"/*.jpg "$broken"/*.pfm; do err_names "$(basename "$f")"; done
     grep -q "decomposed 0 images" out.log || fail "decompose wrote outputs for broken images"
     for f in "$broken"/*.safetensors; do
-        expect 1 "$HDNET" estimate-light small.png -m "$f" -o x.txt
+        expect 1 "$HDNET" estimate-light small.png --aligned -m "$f" -o x.txt
         err_names "$(basename "$f")"
     done
     for f in "$broken"/*.light.txt; do

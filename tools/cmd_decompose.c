@@ -1,15 +1,18 @@
-/* cmd_decompose.c: `hdnet decompose`: aligned face textures (files, or SPEC section 5 folders) into
- * albedo, shading, normals, light and reconstruction, with a contact sheet per image, in batches
- * with a progress line (docs/usage.md gives the output layout, which `hdnet eval --pred` reads).
+/* cmd_decompose.c: `hdnet decompose`: photos and aligned face textures (files, or SPEC section 5
+ * folders) into albedo, shading, normals, light and reconstruction, with a contact sheet per image,
+ * textures in batches with a progress line (docs/usage.md gives the output layout, which `hdnet eval
+ * --pred` reads). A photo is aligned first: each face k gets the same outputs as NAME.face<k>.*, and
+ * the reconstructions are warped back and Poisson-blended into NAME.recon.png at the photo's size.
  * decompose_textures is the texture-in, texture-out core; everything else is file handling. One
- * unreadable image is reported and skipped; the exit status is 1 at the end if any failed. */
+ * unreadable image (or a photo without a face) is reported and skipped; the exit status is 1 at the
+ * end if any failed. */
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
 #include "core/core.h"
 #include "io/dataset.h"
 
-HD_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of aligned faces (files or folders)")
+HD_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of the faces in photos or aligned textures")
 
 #define SHEET_BORDER 4
 
@@ -163,27 +166,89 @@ static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd
     return st;
 }
 
+/* One photo: aligns it, decomposes every face (outputs out_dir/name.face<k>.*, the face's mask
+ * resized to the model's size for the normals) and blends the reconstructions back into a copy of
+ * the photo, written as out_dir/name.recon.png. *nfaces gets the faces written. */
+static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job *j, int *nfaces)
+{
+    *nfaces = 0;
+    hd_image photo = {0};
+    hd_aligned_face *faces = NULL;
+    int n = 0;
+    hd_status st = hd_image_read_as(j->image, 3, &photo);
+    if (st != HD_OK) return st;
+    st = hd_photo_faces(aligner, model, &photo, &faces, &n);
+    if (st != HD_OK) {
+        hd_image_free(&photo);
+        return st == HD_ERR_NOTFOUND ? hd_fail(st, "%s: no face found (give --aligned if it is an aligned face texture)",
+                                               j->image)
+                                     : hd_fail(st, "%s: %s", j->image, hd_error());
+    }
+    const int size = hd_model_size(model);
+    hd_image *tex = calloc((size_t)n, sizeof *tex);
+    hd_decomposition *d = calloc((size_t)n, sizeof *d);
+    hd_sheet *sheets = calloc((size_t)n, sizeof *sheets);
+    if (!tex || !d || !sheets) st = hd_fail(HD_ERR_NOMEM, "out of memory");
+    for (int k = 0; k < n && st == HD_OK; k++) tex[k] = faces[k].texture; /* borrowed */
+    if (st == HD_OK) st = decompose_textures(model, tex, n, d, sheets);
+    int decomposed = st == HD_OK;
+    for (int k = 0; k < n && st == HD_OK; k++) {
+        char name[64];
+        snprintf(name, sizeof name, ".face%d", k);
+        size_t len = strlen(j->name) + strlen(name) + 1;
+        job fj = {j->image, j->out_dir, malloc(len)};
+        hd_image mask = {0};
+        if (!fj.name) st = hd_fail(HD_ERR_NOMEM, "out of memory");
+        else snprintf(fj.name, len, "%s%s", j->name, name);
+        if (st == HD_OK) st = hd_image_resize(&faces[k].mask, size, size, &mask);
+        if (st == HD_OK) st = write_outputs(&fj, &d[k], &mask, &sheets[k]);
+        free(fj.name);
+        hd_image_free(&mask);
+        if (st == HD_OK) st = hd_warp_back_blend(&faces[k], &d[k].reconstruction, HD_WARP_REPLACE, 0, &photo, NULL);
+        if (st == HD_OK) ++*nfaces;
+    }
+    if (st == HD_OK) {
+        char *path = out_path(j, ".recon.png");
+        st = path ? hd_image_write_png(path, &photo, 8) : HD_ERR_NOMEM;
+        free(path);
+    }
+    for (int k = 0; decomposed && k < n; k++) {
+        hd_sheet_free(&sheets[k]);
+        hd_decomposition_free(&d[k]);
+    }
+    free(tex), free(d), free(sheets);
+    hd_aligned_faces_free(faces, n);
+    hd_image_free(&photo);
+    return st;
+}
+
 int cmd_decompose(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
-    int batch = 4;
+    int batch = 4, aligned = 0;
     const hd_opt opts[] = {
         {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
         {"output", 'o', HD_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
         {"batch", 0, HD_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
         {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
-         "face mask for images without a NAME.mask.png beside them (default: all ones)"},
+         "face mask for aligned textures without a NAME.mask.png beside them (default: all ones)"},
+        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
+         "the inputs are aligned face textures, not photos (automatic for an image with NAME.mask.png or "
+         "NAME.normal.png beside it)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
-        "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--mask M.png]",
-        "Decomposes aligned face textures (SPEC section 2) into intrinsic components. For each image\n"
+        "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--aligned [--mask M.png]]",
+        "Decomposes the faces of photos, or aligned face textures (SPEC section 2: --aligned, or an image\n"
+        "with NAME.mask.png or NAME.normal.png beside it), into intrinsic components. For each texture\n"
         "NAME it writes, at the model's size: NAME.albedo.png (8 bit), NAME.shading.png (16 bit,\n"
         "storing shading / 2), NAME.shading.pfm (exact), NAME.normal.png (16 bit, (n + 1) / 2, 0\n"
         "outside the mask), NAME.light.txt, NAME.recon.png (albedo x shading) and NAME.sheet.png\n"
         "(input | albedo | shading | normal | reconstruction). A folder input (SPEC section 5) keeps\n"
-        "its subject folders: DIR/SUBJECT/NAME.*. An unreadable image is reported and skipped; the\n"
-        "exit status is then 1, after every other image is written.",
+        "its subject folders: DIR/SUBJECT/NAME.*. A photo NAME is aligned first: face k gets the same\n"
+        "files as NAME.face<k>.*, and NAME.recon.png is the photo with each face's reconstruction warped\n"
+        "back and Poisson-blended in. An unreadable image, or a photo without a face, is reported and\n"
+        "skipped; the exit status is then 1, after every other image is written.",
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -215,6 +280,32 @@ int cmd_decompose(int argc, char **argv)
         rc = hd_report("decompose");
         goto done;
     }
+    /* photos one at a time (each aligned first); the aligned textures below in batches */
+    int textures = 0;
+    hd_aligner *aligner = NULL;
+    for (int i = 0; i < jobs.count; i++) {
+        if (aligned || hd_input_kind_of(jobs.v[i].image) == HD_INPUT_TEXTURE) {
+            jobs.v[textures++] = jobs.v[i]; /* keep the textures, in order, at the front */
+            continue;
+        }
+        int nfaces = 0;
+        hd_status st = aligner ? HD_OK : hd_aligner_load(&aligner);
+        if (st == HD_OK) st = hd_mkdirs(jobs.v[i].out_dir);
+        if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces);
+        if (st != HD_OK) {
+            hd_report("decompose");
+            failed++;
+        } else {
+            printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces, nfaces == 1 ? "" : "s",
+                   jobs.v[i].out_dir, jobs.v[i].name, jobs.v[i].out_dir, jobs.v[i].name);
+            written += nfaces;
+        }
+        free(jobs.v[i].image);
+        free(jobs.v[i].out_dir);
+        free(jobs.v[i].name);
+    }
+    jobs.count = textures;
+    hd_aligner_free(aligner);
     const int size = hd_model_size(model);
     hd_image *tex = calloc((size_t)batch, sizeof *tex), *mask = calloc((size_t)batch, sizeof *mask);
     hd_decomposition *d = calloc((size_t)batch, sizeof *d);
@@ -227,7 +318,7 @@ int cmd_decompose(int argc, char **argv)
         goto done;
     }
     hd_progress progress;
-    hd_progress_start(&progress, "decompose", jobs.count);
+    if (jobs.count) hd_progress_start(&progress, "decompose", jobs.count);
     for (int start = 0; start < jobs.count; start += batch) {
         int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
         for (int i = start; i < end; i++) {
@@ -263,7 +354,7 @@ int cmd_decompose(int argc, char **argv)
         }
         hd_progress_update(&progress, end, NULL);
     }
-    hd_progress_finish(&progress, jobs.count, NULL);
+    if (jobs.count) hd_progress_finish(&progress, jobs.count, NULL);
     free(tex), free(mask), free(d), free(sheets), free(index);
     printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
     if (failed) printf(" (%d failed)", failed);

@@ -1,26 +1,42 @@
-/* cmd_delight.c: `hdnet delight`: an aligned face texture under flat light, i.e. the paper's final
- * albedo I / S (clamped) where the mask is set, the input elsewhere (docs/usage.md).
- * hd_delight_face is the texture-in, texture-out core; this file is the file handling. */
+/* cmd_delight.c: `hdnet delight`: the faces of a photo, or an aligned face texture, under flat
+ * light, i.e. the paper's final albedo I / S (clamped) where the face's mask is set, the input
+ * elsewhere (docs/usage.md). hd_delight_face is the texture-in, texture-out core and
+ * hd_relight_photo its photo wrapper (align, delight each face, warp back, Poisson blend); this
+ * file is the file handling. */
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
 
-HD_COMMAND("delight", cmd_delight, "remove the lighting of an aligned face (albedo under flat light)")
+HD_COMMAND("delight", cmd_delight, "remove the lighting of the faces of a photo or of an aligned face (albedo under flat light)")
+
+/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
+static hd_status write_picture(const char *path, const hd_image *img)
+{
+    size_t n = strlen(path);
+    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
+    return hd_image_write_png(path, img, 8);
+}
 
 int cmd_delight(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
+    int aligned = 0;
     const hd_opt opts[] = {
         {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
-        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the delit image (PNG, 8 bit, the input's size)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png", "face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the delit image (8-bit PNG, or .pfm float32; the input's size)"},
+        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
+         "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
-        "delight", "IMG [-m MODEL] -o OUT.png [--mask M.png]",
-        "Removes the lighting of an aligned face texture (SPEC section 2): writes the final albedo\n"
-        "I / S (S the predicted shading, floored at 1e-3, the ratio clamped to [0, 1]) where the mask\n"
-        "is set and the input where it is not.",
+        "delight", "IMG [-m MODEL] -o OUT.png [--aligned [--mask M.png]]",
+        "Removes the lighting of every face of a photo: each face is aligned, replaced by its final albedo\n"
+        "I / S (S the predicted shading, floored at 1e-3, the ratio clamped to [0, 1]) in the aligned\n"
+        "texture space, warped back and Poisson-blended into the photo. With --aligned (or a companion\n"
+        "NAME.mask.png / NAME.normal.png) IMG is an aligned face texture: the final albedo where the mask\n"
+        "is set, the input where it is not.",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -29,21 +45,45 @@ int cmd_delight(int argc, char **argv)
     free(pos);
     if (!out) return hd_usage_error(&spec, "-o is required");
 
+    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
     hd_image tex = {0}, mask = {0}, delit = {0};
     char *mask_source = NULL;
     int rc = HD_EXIT_OK;
-    if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
-        hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
-        hd_model_load(model_path, &model) != HD_OK || hd_delight_face(model, &tex, &mask, &delit) != HD_OK ||
-        hd_image_write_png(out, &delit, 8) != HD_OK)
+    if (photo) {
+        int nfaces = 0;
+        hd_status st = HD_OK;
+        if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
+            hd_aligner_load(&aligner) != HD_OK) {
+            rc = hd_report("delight");
+        } else if ((st = hd_relight_photo(model, aligner, &tex, NULL, 0, HD_BRIGHTNESS_KEEP, NULL, &delit, &nfaces)) ==
+                   HD_ERR_NOTFOUND) {
+            fprintf(stderr, "hdnet delight: %s: no face found (give --aligned if it is an aligned face texture)\n",
+                    image_path);
+            rc = HD_EXIT_FAIL;
+        } else if (st != HD_OK) {
+            fprintf(stderr, "hdnet delight: %s: %s\n", image_path, hd_error());
+            rc = HD_EXIT_FAIL;
+        } else if (write_picture(out, &delit) != HD_OK) {
+            rc = hd_report("delight");
+        } else {
+            if (mask_path) fprintf(stderr, "hdnet delight: note: --mask is for aligned textures; a photo's faces bring their own\n");
+            printf("%s: delit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
+        }
+    } else if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
+               hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
+               hd_model_load(model_path, &model) != HD_OK || hd_delight_face(model, &tex, &mask, &delit) != HD_OK ||
+               write_picture(out, &delit) != HD_OK) {
         rc = hd_report("delight");
-    else if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
+    } else if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0) {
         fprintf(stderr, "hdnet delight: note: used %s beside the image, not --mask %s\n", mask_source, mask_path);
+    }
     hd_image_free(&delit);
     hd_image_free(&tex);
     hd_image_free(&mask);
     if (model) hd_model_free(model);
+    hd_aligner_free(aligner);
     free(mask_source);
     return rc;
 }

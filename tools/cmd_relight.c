@@ -1,7 +1,8 @@
-/* cmd_relight.c: `hdnet relight`: an aligned face texture under a new light (a light file, a
- * built-in preset, all seven presets, or a direction), by the paper's rule relit = (I / S) x
- * s(N, l) (docs/usage.md). relight_texture is the texture-in, texture-out core; everything else
- * here is file handling. */
+/* cmd_relight.c: `hdnet relight`: a photo (every face in it) or an aligned face texture under a new
+ * light (a light file, a built-in preset, all seven presets, or a direction), by the paper's rule
+ * relit = (I / S) x s(N, l) (docs/usage.md). relight_texture is the texture-in, texture-out core;
+ * hd_relight_photo wraps the same steps for photos (align, relight each face, warp back, Poisson
+ * blend); everything else here is file handling. */
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -9,7 +10,7 @@
 #include "cli.h"
 #include "core/core.h"
 
-HD_COMMAND("relight", cmd_relight, "relight an aligned face under a light file, a preset or a direction")
+HD_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
 
 /* The core: decomposes tex once and relights it under each of count lights (relit[count]); delit
  * (may be NULL) receives the albedo under flat light. */
@@ -47,6 +48,14 @@ static char *stem_of(const char *path)
     return s;
 }
 
+/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
+static hd_status write_picture(const char *path, const hd_image *img)
+{
+    size_t n = strlen(path);
+    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
+    return hd_image_write_png(path, img, 8);
+}
+
 /* Sheet: input | delit | relit under each light. */
 static hd_status write_sheet(const char *path, const hd_image *input, const hd_image *delit, const hd_image *relit,
                              int count)
@@ -69,7 +78,7 @@ int cmd_relight(int argc, char **argv)
     const char *sheet_path = NULL;
     hd_opt_floats dir = {.max = 2};
     float intensity = NAN, ambient = NAN;
-    int keep = 0, no_keep = 0;
+    int keep = 0, no_keep = 0, aligned = 0;
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
              (double)HD_LIGHT_DEFAULT_INTENSITY);
@@ -89,15 +98,20 @@ int cmd_relight(int argc, char **argv)
         {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
         {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
+        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
+         "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
         "relight",
         "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT",
-        "Relights an aligned face texture (SPEC section 2): the final albedo I / S (S the predicted\n"
-        "shading) times the shading of the target light on the predicted normals. Masked-out pixels\n"
-        "keep the input. With --preset all, OUT is a folder that receives NAME.preset0.png ..\n"
-        "NAME.preset6.png. The output has the input's size.",
+        "Relights every face of a photo: each face is found, unwarped into the aligned texture space,\n"
+        "relit there (the final albedo I / S, S the predicted shading, times the shading of the target\n"
+        "light on the predicted normals), warped back and Poisson-blended into the photo, so everything\n"
+        "outside the faces stays as it was. With --aligned (or a NAME.mask.png / NAME.normal.png beside\n"
+        "IMG) IMG is an aligned face texture (SPEC section 2), relit directly; masked-out pixels keep the\n"
+        "input. With --preset all, OUT is a folder that receives NAME.preset0.png .. NAME.preset6.png.\n"
+        "The output has the input's size; an OUT ending in .pfm is written as exact float32 PFM.",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -135,24 +149,48 @@ int cmd_relight(int argc, char **argv)
         return hd_report("relight");
     }
 
+    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
     hd_image tex = {0}, mask = {0}, delit = {0};
     hd_image relit[HD_LIGHT_PRESETS];
     memset(relit, 0, sizeof relit);
     char *mask_source = NULL, *stem = NULL;
     int rc = HD_EXIT_FAIL;
-    if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
-        hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
-        hd_model_load(model_path, &model) != HD_OK) {
-        rc = hd_report("relight");
-        goto done;
-    }
-    if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
-        fprintf(stderr, "hdnet relight: note: using %s beside the image, not --mask %s\n", mask_source, mask_path);
-    if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
-                        sheet_path ? &delit : NULL) != HD_OK) {
-        rc = hd_report("relight");
-        goto done;
+    if (photo) {
+        int nfaces = 0;
+        if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
+            hd_aligner_load(&aligner) != HD_OK) {
+            rc = hd_report("relight");
+            goto done;
+        }
+        if (mask_path) fprintf(stderr, "hdnet relight: note: --mask is for aligned textures; a photo's faces bring their own\n");
+        hd_status st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])lights, count, brightness,
+                                        relit, sheet_path ? &delit : NULL, &nfaces);
+        if (st == HD_ERR_NOTFOUND) {
+            fprintf(stderr, "hdnet relight: %s: no face found (give --aligned if it is an aligned face texture)\n",
+                    image_path);
+            goto done;
+        }
+        if (st != HD_OK) {
+            fprintf(stderr, "hdnet relight: %s: %s\n", image_path, hd_error());
+            goto done;
+        }
+        printf("%s: relit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
+    } else {
+        if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
+            hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
+            hd_model_load(model_path, &model) != HD_OK) {
+            rc = hd_report("relight");
+            goto done;
+        }
+        if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
+            fprintf(stderr, "hdnet relight: note: using %s beside the image, not --mask %s\n", mask_source, mask_path);
+        if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
+                            sheet_path ? &delit : NULL) != HD_OK) {
+            rc = hd_report("relight");
+            goto done;
+        }
     }
     if (all) {
         stem = stem_of(image_path);
@@ -166,13 +204,13 @@ int cmd_relight(int argc, char **argv)
                 fprintf(stderr, "hdnet relight: %s: output path too long\n", out);
                 goto done;
             }
-            if (hd_image_write_png(file, &relit[i], 8) != HD_OK) {
+            if (write_picture(file, &relit[i]) != HD_OK) {
                 rc = hd_report("relight");
                 goto done;
             }
         }
         printf("%s/%s.preset0.png .. preset%d.png\n", out, stem, count - 1);
-    } else if (hd_image_write_png(out, &relit[0], 8) != HD_OK) {
+    } else if (write_picture(out, &relit[0]) != HD_OK) {
         rc = hd_report("relight");
         goto done;
     }
@@ -187,6 +225,7 @@ done:
     hd_image_free(&tex);
     hd_image_free(&mask);
     if (model) hd_model_free(model);
+    hd_aligner_free(aligner);
     free(mask_source);
     free(stem);
     return rc;

@@ -1,30 +1,54 @@
-/* cmd_transfer.c: `hdnet transfer`: relights an aligned face under the light the model estimates
- * for a reference face (docs/usage.md). hd_transfer_face is the texture-in, texture-out core
- * (bit-identical to `hdnet estimate-light REF` followed by `hdnet relight IMG --light`); this
- * file is the file handling. */
+/* cmd_transfer.c: `hdnet transfer`: relights the faces of a photo, or an aligned face texture, under
+ * the light the model estimates for a reference face (a photo's best face, or an aligned texture;
+ * docs/usage.md). Exactly `hdnet estimate-light REF` followed by `hdnet relight IMG --light`
+ * (bit-identical); hd_estimate_light(_photo), hd_relight_face and hd_relight_photo are the cores,
+ * this file is the file handling. */
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
 
-HD_COMMAND("transfer", cmd_transfer, "relight an aligned face with the light of a reference face")
+HD_COMMAND("transfer", cmd_transfer, "relight the faces of a photo (or an aligned face) with the light of a reference face")
+
+/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
+static hd_status write_picture(const char *path, const hd_image *img)
+{
+    size_t n = strlen(path);
+    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
+    return hd_image_write_png(path, img, 8);
+}
+
+/* Prints why a photo gave nothing; returns HD_EXIT_FAIL. */
+static int photo_failed(hd_status st, const char *path)
+{
+    if (st == HD_ERR_NOTFOUND)
+        fprintf(stderr, "hdnet transfer: %s: no face found (give --aligned if it is an aligned face texture)\n", path);
+    else
+        fprintf(stderr, "hdnet transfer: %s: %s\n", path, hd_error());
+    return HD_EXIT_FAIL;
+}
 
 int cmd_transfer(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
-    int keep = 0, no_keep = 0;
+    int keep = 0, no_keep = 0, aligned = 0;
     const hd_opt opts[] = {
-        {"ref", 0, HD_OPT_STRING, &ref_path, "REF", "the aligned face whose light is taken"},
+        {"ref", 0, HD_OPT_STRING, &ref_path, "REF", "the photo (its best face) or aligned face whose light is taken"},
         {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
-        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the relit image (PNG, 8 bit, the input's size)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png", "face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the relit image (8-bit PNG, or .pfm float32; the input's size)"},
+        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
         {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the reference light's own level"},
+        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
+         "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
+         "NAME.normal.png beside it)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
-        "transfer", "IMG --ref REF [-m MODEL] -o OUT.png",
-        "Estimates the light of the reference face REF with the model and relights IMG under it\n"
-        "(both aligned face textures, SPEC section 2). Masked-out pixels keep the input.",
+        "transfer", "IMG --ref REF [-m MODEL] -o OUT.png [--aligned]",
+        "Estimates the light of the reference REF with the model (a photo: its best-scoring face) and\n"
+        "relights IMG under it: every face of a photo (aligned, relit, warped back, Poisson-blended), or\n"
+        "an aligned face texture with --aligned (masked-out pixels keep the input).",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -36,23 +60,56 @@ int cmd_transfer(int argc, char **argv)
     if (keep && no_keep) return hd_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
     const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
 
+    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
+    const int ref_photo = !aligned && hd_input_kind_of(ref_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
     hd_image tex = {0}, ref = {0}, mask = {0}, relit = {0};
     char *mask_source = NULL;
-    int rc = HD_EXIT_OK;
+    float light[HD_SH_COEFFS];
+    int rc = HD_EXIT_FAIL, nfaces = 0;
     if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_image_read_as(ref_path, 3, &ref) != HD_OK ||
-        hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
-        hd_model_load(model_path, &model) != HD_OK ||
-        hd_transfer_face(model, &tex, &mask, &ref, brightness, &relit) != HD_OK ||
-        hd_image_write_png(out, &relit, 8) != HD_OK)
+        (!photo && hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK) ||
+        hd_model_load(model_path, &model) != HD_OK || ((photo || ref_photo) && hd_aligner_load(&aligner) != HD_OK)) {
         rc = hd_report("transfer");
-    else if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
+        goto done;
+    }
+    /* the reference's light, then IMG relit under it (as estimate-light + relight --light) */
+    hd_status st = ref_photo ? hd_estimate_light_photo(model, aligner, &ref, light, &nfaces)
+                             : hd_estimate_light(model, &ref, light);
+    if (st != HD_OK) {
+        rc = ref_photo ? photo_failed(st, ref_path) : hd_report("transfer");
+        goto done;
+    }
+    if (ref_photo && nfaces > 1)
+        fprintf(stderr, "hdnet transfer: note: %s has %d faces; the light is that of face 0 (best score)\n", ref_path,
+                nfaces);
+    if (photo) {
+        st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])&light, 1, brightness, &relit, NULL,
+                              &nfaces);
+        if (st != HD_OK) {
+            rc = photo_failed(st, image_path);
+            goto done;
+        }
+        if (mask_path) fprintf(stderr, "hdnet transfer: note: --mask is for aligned textures; a photo's faces bring their own\n");
+    } else if (hd_relight_face(model, &tex, &mask, light, brightness, &relit) != HD_OK) {
+        rc = hd_report("transfer");
+        goto done;
+    }
+    if (write_picture(out, &relit) != HD_OK) {
+        rc = hd_report("transfer");
+        goto done;
+    }
+    if (!photo && mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
         fprintf(stderr, "hdnet transfer: note: used %s beside the image, not --mask %s\n", mask_source, mask_path);
+    rc = HD_EXIT_OK;
+done:
     hd_image_free(&relit);
     hd_image_free(&tex);
     hd_image_free(&ref);
     hd_image_free(&mask);
     if (model) hd_model_free(model);
+    hd_aligner_free(aligner);
     free(mask_source);
     return rc;
 }
