@@ -281,7 +281,7 @@ int cmd_decompose(int argc, char **argv)
         goto done;
     }
     /* photos one at a time (each aligned first); the aligned textures below in batches */
-    int textures = 0;
+    int textures = 0, no_face = 0;
     hd_aligner *aligner = NULL;
     for (int i = 0; i < jobs.count; i++) {
         if (aligned || hd_input_kind_of(jobs.v[i].image) == HD_INPUT_TEXTURE) {
@@ -292,7 +292,10 @@ int cmd_decompose(int argc, char **argv)
         hd_status st = aligner ? HD_OK : hd_aligner_load(&aligner);
         if (st == HD_OK) st = hd_mkdirs(jobs.v[i].out_dir);
         if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces);
-        if (st != HD_OK) {
+        if (st == HD_ERR_NOTFOUND) { /* reported, skipped, not a failure of the batch */
+            hd_report("decompose");
+            no_face++;
+        } else if (st != HD_OK) {
             hd_report("decompose");
             failed++;
         } else {
@@ -358,8 +361,9 @@ int cmd_decompose(int argc, char **argv)
     free(tex), free(mask), free(d), free(sheets), free(index);
     printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
     if (failed) printf(" (%d failed)", failed);
+    if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
     printf("\n");
-    if (failed) rc = HD_EXIT_FAIL;
+    if (failed || written == 0) rc = HD_EXIT_FAIL;
 done:
     if (model) hd_model_free(model);
     job_list_free(&jobs);
