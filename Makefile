@@ -27,8 +27,9 @@ HDR     := $(wildcard include/*.h src/*/*.h tools/*.h tests/*.h)
 
 all: hdnet
 
+# ./hdnet points at the default build only (other BUILD folders leave it alone).
 hdnet: $(BUILD)/hdnet
-	ln -sf $(BUILD)/hdnet hdnet
+	if [ "$(BUILD)" = build ]; then ln -sf build/hdnet hdnet; fi
 
 $(BUILD)/libhdnet.a: $(OBJ)
 	@mkdir -p $(dir $@)
