@@ -5,7 +5,7 @@
 # the input exactly; along the blend boundary the change (output - input) has no step (its
 # gradient there is at most twice that inside the face, where a plain paste would step by the
 # whole change, about 5x); a photo without a face gives exit 1 and a
-# message naming it (reported and skipped in a batch); aligned textures are recognised by their
+# message naming it (reported and skipped in a batch); two faces are both done; aligned textures are recognised by their
 # companions; transfer = estimate-light + relight --light on photos too. Runs in a scratch folder.
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -143,6 +143,23 @@ exists dec/astronaut.face0.albedo.png dec/astronaut.face0.shading.png dec/astron
 [ "$(png_size dec/astronaut.face0.albedo.png)" = "32 32" ] || fail "face albedo is not at the model's size"
 [ "$(png_size dec/astronaut.recon.png)" = "512 512" ] || fail "the blended reconstruction is not at the photo's size"
 [ ! -e dec/astronaut.face1.albedo.png ] || fail "a second face in the astronaut photo"
+
+# two faces in one photo (two 256 x 256 crops of the astronaut side by side, pasted with `hdnet
+# blend` through a mask): both relit, both decomposed
+LC_ALL=C awk 'BEGIN { printf "Pf\n512 512\n-1.0\n"
+    for (r = 0; r < 512; r++) for (x = 0; x < 512; x++)
+        if (x >= 100 && x < 356 && 511 - r < 256) printf "%c%c%c%c", 0, 0, 128, 63; else printf "%c%c%c%c", 0, 0, 0, 0 }' >crop.pfm
+{
+    printf 'Pf\n516 260\n-1.0\n'
+    head -c $((516 * 260 * 4)) /dev/zero
+} >canvas.pfm
+expect 0 "$HDNET" blend -q --source "$photo" --mask crop.pfm --target canvas.pfm --offset -98,2 -o one.png
+expect 0 "$HDNET" blend -q --source "$photo" --mask crop.pfm --target one.png --offset 160,2 -o two.png
+expect 0 "$HDNET" relight two.png $M --preset 3 -o two_relit.png
+says "relit 2 faces"
+[ "$(png_size two_relit.png)" = "516 260" ] || fail "the two-face photo relit is $(png_size two_relit.png)"
+expect 0 "$HDNET" decompose two.png $M -o dec4
+exists dec4/two.face0.albedo.png dec4/two.face1.albedo.png dec4/two.recon.png
 
 # a photo without a face: exit 1 naming it; in a batch, reported and skipped
 printf '\000\000\000\077' >px # 0.5 as a little-endian float
