@@ -192,8 +192,13 @@ static void test_run(void)
             }
         }
     }
-    hd_eval_report rep;
+    hd_eval_report rep, rep1;
+    hd_set_threads(1);
+    CHECK(hd_eval_run("set", "pred", NULL, &rep1, NULL) == HD_OK);
+    hd_set_threads(2);
     CHECK(hd_eval_run("set", "pred", NULL, &rep, NULL) == HD_OK);
+    /* the same numbers whatever the thread count (slots merged in order) */
+    CHECK(memcmp(rep.rows, rep1.rows, sizeof rep.rows) == 0);
     CHECK(rep.images == 12 && rep.skipped == 0 && rep.nrows == 4 && rep.kmeans_k == 10);
     const hd_eval_row *p = &rep.rows[0];
     CHECK(p->has_normal && p->has_albedo && p->has_recon && p->has_shading && p->has_light);

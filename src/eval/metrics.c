@@ -326,6 +326,31 @@ static hd_status score(const gt_image *g, const hd_decomposition *d, hd_eval_sum
     return HD_OK;
 }
 
+/* What one image contributes, kept apart until the in-order merge. */
+typedef struct image_result {
+    hd_status status;
+    char *message; /* the reason, when status != HD_OK */
+    hd_eval_sums sums[4];
+    float gt_light[HD_SH_COEFFS], pred_light[HD_SH_COEFFS], ls_light[HD_SH_COEFFS];
+    int has_ls;
+} image_result;
+
+static void sums_add(hd_eval_sums *a, const hd_eval_sums *b)
+{
+    a->normal_sum += b->normal_sum;
+    a->normal_sum2 += b->normal_sum2;
+    a->normal_n += b->normal_n;
+    for (int k = 0; k < HD_EVAL_THRESHOLDS; k++) a->normal_under[k] += b->normal_under[k];
+    a->albedo_abs += b->albedo_abs;
+    a->albedo_sq += b->albedo_sq;
+    a->albedo_n += b->albedo_n;
+    a->recon_abs += b->recon_abs;
+    a->recon_sq += b->recon_sq;
+    a->recon_n += b->recon_n;
+    a->shading_abs += b->shading_abs;
+    a->shading_n += b->shading_n;
+}
+
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *rep,
                       void (*warn)(const char *message))
 {
@@ -346,8 +371,16 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
     hd_eval_sums sums[4];
     memset(sums, 0, sizeof sums);
     long scored = 0, nls = 0;
-    for (int i = 0; i < ds.count && st == HD_OK; i++) {
+    /* Each image is scored into its own slot (in parallel when reading predictions from disk; a
+     * model runs its own threads), then the slots are merged in the set's order, so the result
+     * does not depend on the thread count. */
+    image_result *res = hd_calloc(n ? n : 1, sizeof *res);
+    const int count = res ? ds.count : 0;
+    if (!res) st = HD_ERR_NOMEM;
+#pragma omp parallel for schedule(dynamic, 1) if (pred_dir != NULL)
+    for (int i = 0; i < count; i++) {
         const hd_sample *s = &ds.samples[i];
+        image_result *ir = &res[i];
         gt_image g;
         hd_decomposition d;
         memset(&d, 0, sizeof d);
@@ -356,24 +389,33 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
             e = pred_dir ? load_pred(pred_dir, s, &d) : hd_model_decompose(model, &g.input, 1, &d);
             if (e == HD_OK) e = fit_decomposition(&d, g.input.width, g.input.height);
             if (e == HD_OK) e = ensure_recon(&d);
-            int has_ls = 0;
-            if (e == HD_OK)
-                e = score(&g, &d, sums, gt_l + (size_t)scored * HD_SH_COEFFS, pred_l + (size_t)scored * HD_SH_COEFFS,
-                          ls_l + (size_t)nls * HD_SH_COEFFS, &has_ls);
-            if (e == HD_OK && has_ls) {
-                memcpy(ls_gt + (size_t)nls * HD_SH_COEFFS, g.light, sizeof g.light);
-                nls++;
-            }
-            if (e == HD_OK) scored++;
+            if (e == HD_OK) e = score(&g, &d, ir->sums, ir->gt_light, ir->pred_light, ir->ls_light, &ir->has_ls);
             hd_decomposition_free(&d);
             gt_free(&g);
         }
-        if (e != HD_OK) {
-            if (e == HD_ERR_NOMEM) st = e;
+        ir->status = e;
+        if (e != HD_OK) ir->message = strdup(hd_error());
+    }
+    for (int i = 0; res && i < ds.count; i++) {
+        image_result *ir = &res[i];
+        if (ir->status != HD_OK) {
+            if (ir->status == HD_ERR_NOMEM && st == HD_OK) st = hd_fail(HD_ERR_NOMEM, "%s", ir->message ? ir->message : "out of memory");
             rep->skipped++;
-            if (warn) warn(hd_error());
+            if (warn) warn(ir->message ? ir->message : "out of memory");
+            free(ir->message);
+            continue;
+        }
+        for (int r = 0; r < 4; r++) sums_add(&sums[r], &ir->sums[r]);
+        memcpy(gt_l + (size_t)scored * HD_SH_COEFFS, ir->gt_light, sizeof ir->gt_light);
+        memcpy(pred_l + (size_t)scored * HD_SH_COEFFS, ir->pred_light, sizeof ir->pred_light);
+        scored++;
+        if (ir->has_ls) {
+            memcpy(ls_gt + (size_t)nls * HD_SH_COEFFS, ir->gt_light, sizeof ir->gt_light);
+            memcpy(ls_l + (size_t)nls * HD_SH_COEFFS, ir->ls_light, sizeof ir->ls_light);
+            nls++;
         }
     }
+    free(res);
     if (st == HD_OK && scored == 0) st = hd_fail(HD_ERR_NOTFOUND, "%s: no image could be scored", data_dir);
     if (st == HD_OK) {
         rep->images = scored;
