@@ -93,8 +93,9 @@ int cmd_relight(int argc, char **argv)
          "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
         {"intensity", 0, HD_OPT_FLOAT, &intensity, "I", intensity_help},
         {"ambient", 0, HD_OPT_FLOAT, &ambient, "A", ambient_help},
-        {"output", 'o', HD_OPT_STRING, &out, "OUT", "relit image (PNG); with --preset all a folder"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png", "face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        {"output", 'o', HD_OPT_STRING, &out, "OUT", "relit image (8-bit PNG, or .pfm float32); with --preset all a folder"},
+        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
         {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
         {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
@@ -104,7 +105,8 @@ int cmd_relight(int argc, char **argv)
     };
     const hd_cmd_spec spec = {
         "relight",
-        "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT",
+        "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT "
+        "[--aligned]",
         "Relights every face of a photo: each face is found, unwarped into the aligned texture space,\n"
         "relit there (the final albedo I / S, S the predicted shading, times the shading of the target\n"
         "light on the predicted normals), warped back and Poisson-blended into the photo, so everything\n"
