@@ -255,6 +255,36 @@ static void test_micro_batch(void)
     hd_trainer_free(&micro);
 }
 
+/* ---- stage 2: phase 2a moves only L-Net (and the discriminator), 2b moves everything */
+
+static void test_stage2(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 1)) return;
+    t.stage = 2;
+    t.lnet_iters = 1;
+    t.lr = 1e-3f;
+    size_t n = t.net.table.total, lnet = t.lnet_offset;
+    float *before = malloc(n * sizeof(float)), *disc0 = malloc(sizeof(float));
+    memcpy(before, t.net.params, n * sizeof(float));
+    disc0[0] = t.net.disc_params[0];
+    hd_step_result r;
+    CHECK(hd_trainer_phase(&t, 0) == HD_TRAIN_LNET && hd_trainer_phase(&t, 1) == HD_TRAIN_ALL);
+    CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
+    CHECK(memcmp(before, t.net.params, lnet * sizeof(float)) == 0); /* conv_in, A-, S-, N-Net frozen */
+    CHECK(memcmp(before + lnet, t.net.params + lnet, (n - lnet) * sizeof(float)) != 0);
+    CHECK(t.net.disc_params[0] != disc0[0]);
+    CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
+    int a = hd_param_find(&t.net.table, "a_net.enc0.weight"), nn = hd_param_find(&t.net.table, "n_net.dec1c.weight");
+    CHECK(memcmp(before + t.net.table.p[a].offset, t.net.params + t.net.table.p[a].offset,
+                 t.net.table.p[a].count * sizeof(float)) != 0);
+    CHECK(memcmp(before + t.net.table.p[nn].offset, t.net.params + t.net.table.p[nn].offset,
+                 t.net.table.p[nn].count * sizeof(float)) != 0);
+    free(before);
+    free(disc0);
+    hd_trainer_free(&t);
+}
+
 /* ---- a tiny pair overfits */
 
 static void test_overfit(void)
@@ -591,6 +621,7 @@ int main(void)
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();
     test_overfit();
+    test_stage2();
     fprintf(stderr, "overfit %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();
     test_resume_and_errors();
