@@ -153,10 +153,7 @@ hd_status hd_face_detector_load(const char *json_path, hd_face_detector **detect
                     a++;
                 }
     }
-    /* The outputs must be there with the shapes the anchors need (checked once with a run). */
-    memset(d->input, 0, (size_t)DETECT_SIZE * DETECT_SIZE * 3 * sizeof(float));
-    st = hd_tfjs_run(d->graph, d->input);
-    if (st != HD_OK) goto fail;
+    /* The outputs must be there with the shapes the anchors need (known from the load). */
     for (int k = 0; k < 2; k++) {
         int n = detect_heads[k].grid * detect_heads[k].grid * detect_heads[k].per_cell, nd, dims[4];
         if (!hd_tfjs_output(d->graph, detect_heads[k].scores, &nd, dims) || nd != 3 || dims[1] != n || dims[2] != 1 ||

@@ -90,8 +90,6 @@ hd_status hd_face_mesh_load(const char *json_path, hd_face_mesh **mesh)
         st = HD_ERR_NOMEM;
         goto fail;
     }
-    st = hd_tfjs_run(m->graph, m->input);
-    if (st != HD_OK) goto fail;
     if (!hd_tfjs_output(m->graph, MESH_OUTPUT, &nd, dims) || nd != 2 || dims[1] != 3 * HD_FACE_MESH_POINTS ||
         !hd_tfjs_output(m->graph, PRESENCE_OUTPUT, &nd, dims) || nd != 2 || dims[1] != 1) {
         st = hd_fail(HD_ERR_FORMAT, "%s: not the face mesh model: outputs %s (1, 1404) and %s (1, 1) expected", json_path,

@@ -33,10 +33,11 @@ void hd_tfjs_input_shape(const hd_tfjs_graph *graph, int *height, int *width, in
  * into NaN or infinity (named by node). */
 hd_status hd_tfjs_run(hd_tfjs_graph *graph, const float *input);
 
-/* After a run: the value of the output node called `name` (a ":0" suffix is accepted): a node no
+/* The output node called `name` (a ":0" suffix is accepted): a node no
  * other node reads, or an Identity/Reshape of one (intermediate buffers are reused during the run).
- * Row-major, with its shape (ndim <= HD_TFJS_MAX_DIMS, dims may be NULL). Valid until the next run
- * or free; NULL with an HD_ERR_NOTFOUND reason when there is no such output. */
+ * Row-major, with its shape (ndim <= HD_TFJS_MAX_DIMS, dims may be NULL); the shape is known from
+ * the load, the values from the last run (until the next run or free). NULL with an
+ * HD_ERR_NOTFOUND reason when there is no such output. */
 const float *hd_tfjs_output(const hd_tfjs_graph *graph, const char *name, int *ndim, int dims[HD_TFJS_MAX_DIMS]);
 
 /* IEEE 754 binary16 to float (exact, subnormals, infinities and NaN included). */
