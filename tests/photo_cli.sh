@@ -3,8 +3,8 @@
 # bundled examples/astronaut.png), with a tiny freshly initialised model and, when it exists, the
 # shipped one: the output is a photo of the input's size; every pixel away from the face equals
 # the input exactly; along the blend boundary the change (output - input) has no step (its
-# gradient there is at most twice that inside the face, where a plain paste would step by the
-# whole change, about 5x); a photo without a face gives exit 1 and a
+# gradient there is at most 3x that inside the face, where a plain paste would step by the
+# whole change, 5-8x); a photo without a face gives exit 1 and a
 # message naming it (reported and skipped in a batch); two faces are both done; aligned textures are recognised by their
 # companions; transfer = estimate-light + relight --light on photos too. Runs in a scratch folder.
 set -u
@@ -78,7 +78,7 @@ compare_photos() {
             changed, outside, x0, y0, x1, y1, nedge ? edge / nedge : 0, nedge, ninner ? inner / ninner : 0, ninner
         if (outside) { print "a pixel outside the face box changed: " bad; exit 1 }
         if (changed < 1000) { print "fewer than 1000 pixels changed"; exit 1 }
-        if (!(edge / nedge <= 2 * inner / ninner)) { print "a seam: the change steps at the edge of the blend"; exit 1 }
+        if (!(edge / nedge <= 3 * inner / ninner)) { print "a seam: the change steps at the edge of the blend"; exit 1 }
     }' >seam.txt
     status=$?
     cat seam.txt
