@@ -66,6 +66,13 @@ check:
 	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
 
+# The Debian/Ubuntu packages the build needs (through sudo unless already root).
+DEPS := gcc make libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev
+deps:
+	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
+	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	    $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends $(DEPS); fi
+
 bench: hdnet
 	./hdnet bench
 
@@ -83,5 +90,5 @@ install: hdnet
 clean:
 	rm -rf build build-check hdnet
 
-.PHONY: all hdnet tests test check bench demo install clean
+.PHONY: all hdnet tests test check bench demo install clean deps
 .SECONDARY:
