@@ -5,16 +5,8 @@
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
 photo="$root/examples/astronaut.png"
-fail() { echo "align_cli: $*" >&2; exit 1; }
-# expect CODE PATTERN cmd...: runs cmd, checks its exit code and that stderr+stdout match PATTERN
-expect() {
-    want=$1 pattern=$2
-    shift 2
-    "$@" >out.txt 2>err.txt
-    got=$?
-    [ "$got" -eq "$want" ] || { cat out.txt err.txt >&2; fail "'$*' exited $got, expected $want"; }
-    cat out.txt err.txt | grep -q -- "$pattern" || { cat out.txt err.txt >&2; fail "'$*' did not say '$pattern'"; }
-}
+TEST=align_cli
+. "$(dirname "$0")/cli_common.shlib"
 # A black PFM photo of W x H (gray): header, then W*H little-endian float zeros.
 black_pfm() {
     printf 'Pf\n%d %d\n-1.0\n' "$2" "$3" >"$1"
@@ -24,12 +16,12 @@ black_pfm() {
 black_pfm black.pfm 256 256
 mkdir -p batch
 cp "$photo" batch/astronaut.png
-expect 0 "blended" "$HDNET" blend --source black.pfm --target black.pfm -o batch/black.png
+expect_saying 0 "blended" "$HDNET" blend --source black.pfm --target black.pfm -o batch/black.png
 
 # a folder with the bundled photo (exactly one face, five files) and a face-less photo (reported,
 # not an error for the batch)
-expect 0 "1 face(s) from 2 photo(s)" "$HDNET" align batch -o aligned --size 128
-grep -q "batch/black.png: no face found" err.txt || fail "the face-less photo was not reported: $(cat err.txt)"
+expect_saying 0 "1 face(s) from 2 photo(s)" "$HDNET" align batch -o aligned --size 128
+grep -q "batch/black.png: no face found" err.log || fail "the face-less photo was not reported: $(cat err.log)"
 for f in face0.png face0.mask.png face0.normal.png face0.landmarks.txt face0.warp.txt; do
     [ -s "aligned/astronaut/$f" ] || fail "aligned/astronaut/$f is missing"
 done
@@ -40,37 +32,37 @@ head -1 aligned/astronaut/face0.warp.txt | grep -q '^hdnet-warp 1$' || fail "war
 grep -q '^size 128$' aligned/astronaut/face0.warp.txt || fail "warp file does not record --size 128"
 
 # no face, tiny, huge, one photo each: exit 1 when nothing at all was found
-expect 1 "black.pfm: no face found" "$HDNET" align black.pfm -o none
+expect_saying 1 "black.pfm: no face found" "$HDNET" align black.pfm -o none
 black_pfm tiny.pfm 8 8
-expect 1 "tiny.pfm: no face found" "$HDNET" align tiny.pfm -o none
+expect_saying 1 "tiny.pfm: no face found" "$HDNET" align tiny.pfm -o none
 printf 'PF\n40000 40000\n-1.0\n' >huge.pfm
-expect 1 "huge.pfm" "$HDNET" align huge.pfm -o none
+expect_saying 1 "huge.pfm" "$HDNET" align huge.pfm -o none
 
 # bad paths and bad options
-expect 1 "no-such.png" "$HDNET" align no-such.png -o x
-expect 2 "-o DIR is required" "$HDNET" align "$photo"
-expect 2 "--size" "$HDNET" align "$photo" -o x --size 8
-expect 1 "/dev/null/x" "$HDNET" align "$photo" -o /dev/null/x
+expect_saying 1 "no-such.png" "$HDNET" align no-such.png -o x
+expect_saying 2 "-o DIR is required" "$HDNET" align "$photo"
+expect_saying 2 "--size" "$HDNET" align "$photo" -o x --size 8
+expect_saying 1 "/dev/null/x" "$HDNET" align "$photo" -o /dev/null/x
 mkdir -p empty
-expect 1 "no .png/.jpg/.jpeg photo" "$HDNET" align empty -o x
+expect_saying 1 "no .png/.jpg/.jpeg photo" "$HDNET" align empty -o x
 
 # blend: the face's own texture warped back (round trip), an offset paste, errors
 a=aligned/astronaut
-expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
+expect_saying 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
     --target "$photo" -o roundtrip.png
 [ -s roundtrip.png ] || fail "blend wrote no output"
-expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
+expect_saying 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --warp $a/face0.warp.txt \
     --original $a/face0.png --target "$photo" -o change.png
-expect 2 "--original goes with --warp" "$HDNET" blend --source $a/face0.png --original $a/face0.png --target "$photo" -o x.png
-expect 1 "says the aligned texture is 128x128" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt \
+expect_saying 2 "--original goes with --warp" "$HDNET" blend --source $a/face0.png --original $a/face0.png --target "$photo" -o x.png
+expect_saying 1 "says the aligned texture is 128x128" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt \
     --original "$photo" --target "$photo" -o x.png
-expect 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --target "$photo" \
+expect_saying 0 "relative residual" "$HDNET" blend --source $a/face0.png --mask $a/face0.mask.png --target "$photo" \
     --offset 300,300 -o pasted.png
-expect 1 "the mask must be source-sized" "$HDNET" blend --source $a/face0.png --mask "$photo" --target "$photo" -o x.png
-expect 1 "aligned from a 512x512 photo" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt --target black.pfm -o x.png
+expect_saying 1 "the mask must be source-sized" "$HDNET" blend --source $a/face0.png --mask "$photo" --target "$photo" -o x.png
+expect_saying 1 "aligned from a 512x512 photo" "$HDNET" blend --source $a/face0.png --warp $a/face0.warp.txt --target black.pfm -o x.png
 printf 'hdnet-warp 1\nphoto 512 512\nsize abc\n' >bad.warp.txt
-expect 1 "bad.warp.txt:3" "$HDNET" blend --source $a/face0.png --warp bad.warp.txt --target "$photo" -o x.png
-expect 2 "--source is required" "$HDNET" blend --target "$photo" -o x.png
-expect 2 "exclude each other" "$HDNET" blend --source $a/face0.png --target "$photo" --warp $a/face0.warp.txt --offset 1,2 -o x.png
+expect_saying 1 "bad.warp.txt:3" "$HDNET" blend --source $a/face0.png --warp bad.warp.txt --target "$photo" -o x.png
+expect_saying 2 "--source is required" "$HDNET" blend --target "$photo" -o x.png
+expect_saying 2 "exclude each other" "$HDNET" blend --source $a/face0.png --target "$photo" --warp $a/face0.warp.txt --offset 1,2 -o x.png
 [ ! -e x.png ] || fail "a failed blend left an output"
 exit 0

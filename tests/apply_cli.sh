@@ -11,30 +11,12 @@ HDNET=${HDNET:?HDNET must point at the hdnet tool}
 OMP_NUM_THREADS=1
 export OMP_NUM_THREADS
 
-fail() {
-    echo "apply_cli: FAILED: $*" >&2
-    exit 1
-}
-
-# expect CODE CMD ARGS...: runs the command (output in out.log / err.log) and checks its exit code.
-expect() {
-    want=$1
-    shift
-    "$@" >out.log 2>err.log
-    got=$?
-    if [ "$got" -ne "$want" ]; then
-        cat out.log err.log >&2
-        fail "exit status $got, expected $want: $*"
-    fi
-}
+TEST=apply_cli
+. "$(dirname "$0")/cli_common.shlib"
 
 # err_names TEXT: the last command's error output mentions TEXT.
 err_names() { grep -q -- "$1" err.log || { cat err.log >&2; fail "error output does not mention '$1'"; }; }
 
-exists() { for f in "$@"; do [ -s "$f" ] || fail "missing output $f"; done; }
-
-# png_size FILE: "W H" from the PNG header.
-png_size() { od -An -tu1 -j16 -N8 "$1" | awk '{print $3 * 256 + $4, $7 * 256 + $8}'; }
 
 "$HDNET" help >help.txt || fail "$HDNET help failed"
 if ! grep -q '^  init ' help.txt; then

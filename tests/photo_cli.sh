@@ -12,24 +12,9 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 HDNET=${HDNET:?HDNET must point at the hdnet tool}
 photo="$root/examples/astronaut.png"
 
-fail() {
-    echo "photo_cli: FAILED: $*" >&2
-    exit 1
-}
-# expect CODE CMD ARGS...: runs the command (output in out.log / err.log) and checks its exit code.
-expect() {
-    want=$1
-    shift
-    "$@" >out.log 2>err.log
-    got=$?
-    if [ "$got" -ne "$want" ]; then
-        cat out.log err.log >&2
-        fail "exit status $got, expected $want: $*"
-    fi
-}
+TEST=photo_cli
+. "$(dirname "$0")/cli_common.shlib"
 says() { cat out.log err.log | grep -q -- "$1" || { cat out.log err.log >&2; fail "output does not say '$1'"; }; }
-exists() { for f in "$@"; do [ -s "$f" ] || fail "missing output $f"; done; }
-png_size() { od -An -tu1 -j16 -N8 "$1" | awk '{print $3 * 256 + $4, $7 * 256 + $8}'; }
 
 # pfm_pixels FILE: one line per pixel "r g b", in file order (rows bottom to top), header skipped.
 pfm_pixels() {

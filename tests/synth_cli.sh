@@ -4,25 +4,17 @@
 # `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
 # the baselines under it; a model is scored too; bad options give the documented exit codes.
 set -u
-fail() { echo "synth_cli: $*" >&2; exit 1; }
-# expect CODE PATTERN cmd...: runs cmd, checks its exit code and that stderr+stdout match PATTERN
-expect() {
-    want=$1 pattern=$2
-    shift 2
-    "$@" >out.txt 2>err.txt
-    got=$?
-    [ "$got" -eq "$want" ] || { cat out.txt err.txt >&2; fail "'$*' exited $got, expected $want"; }
-    cat out.txt err.txt | grep -q -- "$pattern" || { cat out.txt err.txt >&2; fail "'$*' did not say '$pattern'"; }
-}
+TEST=synth_cli
+. "$(dirname "$0")/cli_common.shlib"
 
-expect 0 "synth 6/6" "$HDNET" synth set --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5
+expect_saying 0 "synth 6/6" "$HDNET" synth set --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5
 for f in 0000.png 0000.mask.png 0000.normal.png 0000.albedo.png 0000.normal_gt.png 0000.shading.png \
          0000.shading.pfm 0000.light.txt 0001.png; do
     [ -s "set/subject_0002/$f" ] || fail "set/subject_0002/$f is missing"
 done
 [ -s set/preview.sheet.png ] || fail "no preview sheet"
 [ "$(wc -l <set/subject_0000/0001.light.txt)" -eq 9 ] || fail "light file is not 9 lines"
-expect 0 "synth 6/6" "$HDNET" synth again --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --threads 1
+expect_saying 0 "synth 6/6" "$HDNET" synth again --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --threads 1
 cmp -s set/subject_0001/0001.png again/subject_0001/0001.png || fail "same seed, different image"
 cmp -s set/subject_0001/0001.light.txt again/subject_0001/0001.light.txt || fail "same seed, different light"
 
@@ -37,21 +29,21 @@ for d in set/subject_*; do
         cp "$img" "pred/$s/$n.recon.png"
     done
 done
-expect 0 "coarse normals" "$HDNET" eval set --pred pred --json eval.json
-grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.txt ||
-    { cat out.txt >&2; fail "ground truth as a prediction is not a perfect score"; }
+expect_saying 0 "coarse normals" "$HDNET" eval set --pred pred --json eval.json
+grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.log ||
+    { cat out.log >&2; fail "ground truth as a prediction is not a perfect score"; }
 grep -q '"images":	6' eval.json || fail "eval.json lacks the image count"
 grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfect light score"
 
 # a (random, tiny) model scored on the same set: every column of its row filled, the baselines unchanged
-expect 0 "wrote m.safetensors" "$HDNET" init --width 8 --size 32 --seed 1 -o m.safetensors
-expect 0 "^hdnet model " "$HDNET" eval set -m m.safetensors
-grep "^hdnet model" out.txt | grep -q -- " - " && { cat out.txt >&2; fail "the model's row has empty columns"; }
+expect_saying 0 "wrote m.safetensors" "$HDNET" init --width 8 --size 32 --seed 1 -o m.safetensors
+expect_saying 0 "^hdnet model " "$HDNET" eval set -m m.safetensors
+grep "^hdnet model" out.log | grep -q -- " - " && { cat out.log >&2; fail "the model's row has empty columns"; }
 
 # usage errors and failures
-expect 2 "subjects" "$HDNET" synth x --per-subject 2
-expect 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
-expect 2 "exactly one" "$HDNET" eval set
-expect 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
-expect 1 "" "$HDNET" eval set --pred no_such_pred
+expect_saying 2 "subjects" "$HDNET" synth x --per-subject 2
+expect_saying 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
+expect_saying 2 "exactly one" "$HDNET" eval set
+expect_saying 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
+expect_saying 1 "" "$HDNET" eval set --pred no_such_pred
 exit 0

@@ -4,15 +4,8 @@
 # SIGINT, the gradient dump, and the exit codes of bad uses.
 set -u
 H="$HDNET"
-fail() { echo "train_cli: $*" >&2; exit 1; }
-# expect CODE COMMAND...: runs the command and checks its exit status
-expect() {
-    want=$1
-    shift
-    "$@" >out.txt 2>err.txt
-    got=$?
-    [ "$got" = "$want" ] || { cat out.txt err.txt >&2; fail "exit $got (expected $want): $*"; }
-}
+TEST=train_cli
+. "$(dirname "$0")/cli_common.shlib"
 # the loss columns of a loss.csv (the last column, seconds, differs between runs)
 losses() { sed 's/,[^,]*$//' "$1"; }
 
@@ -61,11 +54,11 @@ expect 0 $H train data -o run2 $T --stage 2 --init run/model.safetensors --iters
 [ -s run2/checkpoint.safetensors ] || fail "stage 2 wrote no checkpoint"
 # a stage 1 checkpoint does not resume as stage 2
 expect 1 $H train data -o run $T --stage 2 --iters 8 --resume
-grep -q "stage" err.txt || fail "stage mismatch not explained: $(cat err.txt)"
+grep -q "stage" err.log || fail "stage mismatch not explained: $(cat err.log)"
 
 # the time limit stops after a checkpoint, exit 0
 expect 0 $H train data -o timed $T --iters 100000 --every 100000 --time-limit 0.0001
-grep -q "time limit" out.txt || fail "no time-limit message"
+grep -q "time limit" out.log || fail "no time-limit message"
 [ -s timed/checkpoint.safetensors ] || fail "no checkpoint at the time limit"
 
 # SIGINT: checkpoint, exit 1, and the run resumes
@@ -85,14 +78,14 @@ expect 0 $H train data -o sig $T --iters $((done_iters + 1)) --every 100000 --re
 
 # bad uses
 expect 1 $H train no-such-folder -o x $T --iters 1
-grep -q "no-such-folder" err.txt || fail "missing folder not named: $(cat err.txt)"
+grep -q "no-such-folder" err.log || fail "missing folder not named: $(cat err.log)"
 expect 1 $H train data -o empty-run $T --iters 2 --resume
-grep -q "checkpoint.safetensors" err.txt || fail "missing checkpoint not named: $(cat err.txt)"
+grep -q "checkpoint.safetensors" err.log || fail "missing checkpoint not named: $(cat err.log)"
 head -c 100 run/model.safetensors > torn.safetensors
 expect 1 $H train data -o y $T --iters 1 --init torn.safetensors
-grep -q "torn.safetensors" err.txt || fail "torn model not named: $(cat err.txt)"
+grep -q "torn.safetensors" err.log || fail "torn model not named: $(cat err.log)"
 expect 1 $H train data -o y $T --width 8 --iters 1 --init run/model.safetensors
-grep -q "width" err.txt || fail "width mismatch not explained: $(cat err.txt)"
+grep -q "width" err.log || fail "width mismatch not explained: $(cat err.log)"
 expect 2 $H train data -o y --size 40
 expect 2 $H train data -o y --weights nope
 expect 2 $H train data
