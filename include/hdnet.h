@@ -96,6 +96,8 @@ hd_status hd_image_convert(const hd_image *src, int channels, hd_image *dst);
 hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
 hd_status hd_image_write_pfm(const char *path, const hd_image *img);
+/* Writes exact float32 PFM when path ends in ".pfm", else an 8-bit PNG. */
+hd_status hd_image_write_picture(const char *path, const hd_image *img);
 /* Resizes to width x height: area filter when shrinking, bilinear when enlarging (per axis). */
 hd_status hd_image_resize(const hd_image *src, int width, int height, hd_image *dst);
 

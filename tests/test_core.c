@@ -70,8 +70,25 @@ static void test_atomic_file(void)
     CHECK(hd_mkdirs("a/b/c") == HD_OK && hd_is_dir("a/b/c"));
 }
 
+static void test_path_stems(void)
+{
+    const char *cases[][3] = {{"dir/a.b/face.png", "face", "dir/a.b/face.mask.png"},
+                              {"face.jpg", "face", "face.mask.png"},
+                              {"dir/.hidden", ".hidden", "dir/.hidden.mask.png"},
+                              {"dir/noext", "noext", "dir/noext.mask.png"},
+                              {"x.tar.gz", "x.tar", "x.tar.mask.png"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char *stem = hd_path_stem(cases[i][0]), *comp = hd_path_companion(cases[i][0], ".mask.png");
+        CHECK(stem && strcmp(stem, cases[i][1]) == 0);
+        CHECK(comp && strcmp(comp, cases[i][2]) == 0);
+        free(stem);
+        free(comp);
+    }
+}
+
 int main(void)
 {
+    test_path_stems();
     test_rng();
     test_sizes_and_arena();
     test_atomic_file();

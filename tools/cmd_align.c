@@ -68,21 +68,6 @@ static hd_status collect(const char *arg, char ***list, int *count, int *cap)
     return HD_OK;
 }
 
-/* The photo's file name without folder and extension. */
-static char *photo_stem(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *base = slash ? slash + 1 : path;
-    const char *dot = strrchr(base, '.');
-    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
-    char *s = malloc(n + 1);
-    if (s) {
-        memcpy(s, base, n);
-        s[n] = '\0';
-    }
-    return s;
-}
-
 int cmd_align(int argc, char **argv)
 {
     const char *out_dir = NULL;
@@ -157,7 +142,7 @@ int cmd_align(int argc, char **argv)
             unreadable++;
             continue;
         }
-        char *stem = photo_stem(photos[p]);
+        char *stem = hd_path_stem(photos[p]);
         char *dir = stem ? hd_path_join(out_dir, stem) : NULL;
         st = dir ? hd_mkdirs(dir) : HD_ERR_NOMEM;
         for (int k = 0; k < count && st == HD_OK; k++) {

@@ -91,14 +91,8 @@ static hd_status add_input(job_list *jobs, const char *input, const char *out)
         hd_dataset_free(&ds);
         return st;
     }
-    const char *slash = strrchr(input, '/');
-    const char *base = slash ? slash + 1 : input;
-    const char *dot = strrchr(base, '.');
-    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
-    char *name = malloc(n + 1);
-    if (!name) return hd_fail(HD_ERR_NOMEM, "out of memory");
-    memcpy(name, base, n);
-    name[n] = '\0';
+    char *name = hd_path_stem(input);
+    if (!name) return HD_ERR_NOMEM;
     int ok = job_add(jobs, input, out, name);
     free(name);
     return ok ? HD_OK : hd_fail(HD_ERR_NOMEM, "out of memory");

@@ -9,14 +9,6 @@
 
 HD_COMMAND("delight", cmd_delight, "remove the lighting of the faces of a photo or of an aligned face (albedo under flat light)")
 
-/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
-static hd_status write_picture(const char *path, const hd_image *img)
-{
-    size_t n = strlen(path);
-    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
-    return hd_image_write_png(path, img, 8);
-}
-
 int cmd_delight(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
@@ -65,7 +57,7 @@ int cmd_delight(int argc, char **argv)
         } else if (st != HD_OK) {
             fprintf(stderr, "hdnet delight: %s: %s\n", image_path, hd_error());
             rc = HD_EXIT_FAIL;
-        } else if (write_picture(out, &delit) != HD_OK) {
+        } else if (hd_image_write_picture(out, &delit) != HD_OK) {
             rc = hd_report("delight");
         } else {
             if (mask_path) fprintf(stderr, "hdnet delight: note: --mask is for aligned textures; a photo's faces bring their own\n");
@@ -74,7 +66,7 @@ int cmd_delight(int argc, char **argv)
     } else if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
                hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
                hd_model_load(model_path, &model) != HD_OK || hd_delight_face(model, &tex, &mask, &delit) != HD_OK ||
-               write_picture(out, &delit) != HD_OK) {
+               hd_image_write_picture(out, &delit) != HD_OK) {
         rc = hd_report("delight");
     } else if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0) {
         fprintf(stderr, "hdnet delight: note: used %s beside the image, not --mask %s\n", mask_source, mask_path);

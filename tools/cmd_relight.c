@@ -33,29 +33,6 @@ static hd_status relight_texture(hd_model *model, const hd_image *tex, const hd_
     return st;
 }
 
-/* "dir/NAME.ext" -> "NAME" (malloc'ed). */
-static char *stem_of(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *base = slash ? slash + 1 : path;
-    const char *dot = strrchr(base, '.');
-    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
-    char *s = malloc(n + 1);
-    if (s) {
-        memcpy(s, base, n);
-        s[n] = '\0';
-    }
-    return s;
-}
-
-/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
-static hd_status write_picture(const char *path, const hd_image *img)
-{
-    size_t n = strlen(path);
-    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
-    return hd_image_write_png(path, img, 8);
-}
-
 /* Sheet: input | delit | relit under each light. */
 static hd_status write_sheet(const char *path, const hd_image *input, const hd_image *delit, const hd_image *relit,
                              int count)
@@ -195,7 +172,7 @@ int cmd_relight(int argc, char **argv)
         }
     }
     if (all) {
-        stem = stem_of(image_path);
+        stem = hd_path_stem(image_path);
         if (!stem || hd_mkdirs(out) != HD_OK) {
             rc = hd_report("relight");
             goto done;
@@ -206,13 +183,13 @@ int cmd_relight(int argc, char **argv)
                 fprintf(stderr, "hdnet relight: %s: output path too long\n", out);
                 goto done;
             }
-            if (write_picture(file, &relit[i]) != HD_OK) {
+            if (hd_image_write_picture(file, &relit[i]) != HD_OK) {
                 rc = hd_report("relight");
                 goto done;
             }
         }
         printf("%s/%s.preset0.png .. preset%d.png\n", out, stem, count - 1);
-    } else if (write_picture(out, &relit[0]) != HD_OK) {
+    } else if (hd_image_write_picture(out, &relit[0]) != HD_OK) {
         rc = hd_report("relight");
         goto done;
     }

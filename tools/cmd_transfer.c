@@ -9,14 +9,6 @@
 
 HD_COMMAND("transfer", cmd_transfer, "relight the faces of a photo (or an aligned face) with the light of a reference face")
 
-/* Writes an 8-bit PNG, or exact float32 PFM when the path ends in ".pfm". */
-static hd_status write_picture(const char *path, const hd_image *img)
-{
-    size_t n = strlen(path);
-    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
-    return hd_image_write_png(path, img, 8);
-}
-
 /* Prints why a photo gave nothing; returns HD_EXIT_FAIL. */
 static int photo_failed(hd_status st, const char *path)
 {
@@ -96,7 +88,7 @@ int cmd_transfer(int argc, char **argv)
         rc = hd_report("transfer");
         goto done;
     }
-    if (write_picture(out, &relit) != HD_OK) {
+    if (hd_image_write_picture(out, &relit) != HD_OK) {
         rc = hd_report("transfer");
         goto done;
     }

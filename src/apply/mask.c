@@ -5,21 +5,6 @@
 #include <unistd.h>
 #include "core/core.h"
 
-/* "dir/NAME.ext" -> "dir/NAME.mask.png" (malloc'ed). */
-static char *companion_mask_path(const char *image_path)
-{
-    const char *slash = strrchr(image_path, '/');
-    const char *base = slash ? slash + 1 : image_path;
-    const char *dot = strrchr(base, '.');
-    size_t stem = dot && dot != base ? (size_t)(dot - image_path) : strlen(image_path);
-    static const char suffix[] = ".mask.png";
-    char *path = hd_malloc(stem + sizeof suffix);
-    if (!path) return NULL;
-    memcpy(path, image_path, stem);
-    memcpy(path + stem, suffix, sizeof suffix);
-    return path;
-}
-
 hd_status hd_face_mask_read(const char *image_path, const char *fallback, int width, int height,
                             hd_image *mask, char **source)
 {
@@ -27,7 +12,7 @@ hd_status hd_face_mask_read(const char *image_path, const char *fallback, int wi
     if (source) *source = NULL;
     if (width < 1 || height < 1 || width > HD_IMAGE_MAX_SIDE || height > HD_IMAGE_MAX_SIDE)
         return hd_fail(HD_ERR_ARG, "mask of %d x %d pixels is out of range", width, height);
-    char *path = image_path ? companion_mask_path(image_path) : NULL;
+    char *path = image_path ? hd_path_companion(image_path, ".mask.png") : NULL;
     if (image_path && !path) return HD_ERR_NOMEM;
     if (path && access(path, F_OK) != 0) {
         free(path);

@@ -12,15 +12,8 @@
 /* Whether "dir/NAME.ext" has the companion "dir/NAME<suffix>" beside it. */
 static int has_companion(const char *path, const char *suffix)
 {
-    const char *slash = strrchr(path, '/');
-    const char *base = slash ? slash + 1 : path;
-    const char *dot = strrchr(base, '.');
-    size_t stem = dot && dot != base ? (size_t)(dot - path) : strlen(path);
-    size_t n = strlen(suffix) + 1;
-    char *p = malloc(stem + n);
+    char *p = hd_path_companion(path, suffix);
     if (!p) return 0;
-    memcpy(p, path, stem);
-    memcpy(p + stem, suffix, n);
     int yes = access(p, F_OK) == 0;
     free(p);
     return yes;

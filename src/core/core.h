@@ -85,6 +85,11 @@ void hd_progress_finish(hd_progress *p, long done, const char *extra);
 char *hd_path_join(const char *dir, const char *name);
 /* Creates a directory and its parents (like mkdir -p). */
 hd_status hd_mkdirs(const char *path);
+/* "dir/NAME.ext" -> "NAME" (malloc'ed; NULL with reason on failure). A leading dot is not an
+ * extension (".hidden" stays whole). */
+char *hd_path_stem(const char *path);
+/* "dir/NAME.ext" -> "dir/NAME<suffix>", e.g. the companion "dir/NAME.mask.png" (malloc'ed). */
+char *hd_path_companion(const char *path, const char *suffix);
 /* 1 if path is a directory. */
 int hd_is_dir(const char *path);
 /* Finds a data file shipped with hdnet (the canonical mesh, face models, the default model):

@@ -141,6 +141,38 @@ char *hd_path_join(const char *dir, const char *name)
     return p;
 }
 
+/* Where the extension of the last path component starts (its length when it has none). */
+static size_t stem_end(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *dot = strrchr(base, '.');
+    return dot && dot != base ? (size_t)(dot - path) : strlen(path);
+}
+
+char *hd_path_stem(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    size_t start = slash ? (size_t)(slash + 1 - path) : 0, n = stem_end(path) - start;
+    char *s = hd_malloc(n + 1);
+    if (s) {
+        memcpy(s, path + start, n);
+        s[n] = '\0';
+    }
+    return s;
+}
+
+char *hd_path_companion(const char *path, const char *suffix)
+{
+    size_t stem = stem_end(path), n = strlen(suffix) + 1;
+    char *p = hd_malloc(stem + n);
+    if (p) {
+        memcpy(p, path, stem);
+        memcpy(p + stem, suffix, n);
+    }
+    return p;
+}
+
 int hd_is_dir(const char *path)
 {
     struct stat sb;

@@ -254,3 +254,10 @@ done:
     *dst = out;
     return HD_OK;
 }
+
+hd_status hd_image_write_picture(const char *path, const hd_image *img)
+{
+    size_t n = strlen(path);
+    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
+    return hd_image_write_png(path, img, 8);
+}
