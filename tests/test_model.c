@@ -25,6 +25,7 @@ static void make_pair(hd_pair_batch *b, int pair, unsigned seed)
         float *I = b->image + (size_t)slot * 3 * HW, *m = b->mask + (size_t)slot * HW;
         float *N = b->coarse_normal + (size_t)slot * 3 * HW;
         b->has_normal[slot] = 1;
+        b->has_albedo[slot] = k == 0;
         for (int y = 0; y < S; y++)
             for (int x = 0; x < S; x++) {
                 size_t p = (size_t)y * S + x;
@@ -36,6 +37,8 @@ static void make_pair(hd_pair_batch *b, int pair, unsigned seed)
                 float s = hd_sh_shade(lights[k], n);
                 float alb[3] = {0.55f + 0.2f * u, 0.4f + 0.1f * v, 0.35f + 0.05f * (u * v)};
                 for (int c = 0; c < 3; c++) I[c * HW + p] = fminf(fmaxf(alb[c] * s * 0.6f, 0.0f), 1.0f);
+                /* a ground-truth albedo for the albedo_gt term (on one image of the pair only) */
+                for (int c = 0; c < 3; c++) b->albedo_gt[(size_t)slot * 3 * HW + c * HW + p] = k ? 0.0f : alb[c];
             }
     }
 }
@@ -610,6 +613,37 @@ static void test_resume_and_errors(void)
     }
 }
 
+/* ---- the albedo_gt term by hand: mean over pairs of the masked L1 of the images with a truth */
+
+static void test_albedo_supervised(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 2)) return;
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    size_t HW = 32 * 32;
+    double want = 0;
+    for (int b = 0; b < 4; b++) {
+        if (!t.batch.has_albedo[b]) continue;
+        double num = 0, den = 0;
+        for (int c = 0; c < 3; c++)
+            for (size_t p = 0; p < HW; p++) {
+                double m = t.batch.mask[b * HW + p];
+                num += m * fabs(t.net.albedo[(b * 3 + c) * HW + p] - t.batch.albedo_gt[(b * 3 + c) * HW + p]);
+                den += m;
+            }
+        want += num / den;
+    }
+    want /= 2; /* pairs */
+    CHECK(want > 0.01);
+    CHECK_NEAR(r.terms[HD_LOSS_ALBEDO_GT], want, 1e-5);
+    /* images without a truth do not count */
+    memset(t.batch.has_albedo, 0, 4);
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_ALBEDO_GT] == 0.0);
+    hd_trainer_free(&t);
+}
+
 int main(void)
 {
     hd_set_threads(1); /* tiny shapes: threads only add overhead */
@@ -617,6 +651,7 @@ int main(void)
     test_shade_grad();
     double t0 = hd_seconds();
     test_micro_batch();
+    test_albedo_supervised();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();

@@ -22,7 +22,7 @@ static void warn(const char *message) { fprintf(stderr, "hdnet train: warning: %
 
 int cmd_train(int argc, char **argv)
 {
-    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL;
+    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0;
     float time_limit = 0, lr = 0;
@@ -49,6 +49,10 @@ int cmd_train(int argc, char **argv)
         {"w-light", 0, HD_OPT_FLOAT, &w[HD_LOSS_LIGHT], "X", "weight of L_l (0.01)"},
         {"w-srec", 0, HD_OPT_FLOAT, &w[HD_LOSS_SREC], "X", "weight of L_Srec (0.01)"},
         {"w-adv", 0, HD_OPT_FLOAT, &w[HD_LOSS_ADV], "X", "weight of L_adv (gt 0.001, dpr 0.0001)"},
+        {"w-albedo-gt", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO_GT], "X",
+         "not the paper's: weight of mean_m|A - A_gt| on sets with NAME.albedo.png (default 0)"},
+        {"prior-normals", 0, HD_OPT_STRING, &prior, "coarse|gt",
+         "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
         {"every", 0, HD_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
         {"seed", 0, HD_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, HD_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
@@ -79,6 +83,8 @@ int cmd_train(int argc, char **argv)
         return hd_usage_error(&spec, "sizes, counts, the seed, the time limit and the learning rate must not be negative");
     if (size && size % 32) return hd_usage_error(&spec, "--size must be a multiple of 32");
     if (resume && init) return hd_usage_error(&spec, "--resume and --init exclude each other");
+    if (strcmp(prior, "coarse") != 0 && strcmp(prior, "gt") != 0)
+        return hd_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
 
     hd_train_options o;
     hd_train_defaults(&o);
@@ -101,6 +107,7 @@ int cmd_train(int argc, char **argv)
     o.time_limit_min = time_limit;
     o.lr = lr;
     o.every = every;
+    o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.seed = (uint64_t)seed;
     o.init_model = init;
     o.dump_grads = dump;
@@ -129,10 +136,10 @@ int cmd_train(int argc, char **argv)
         return HD_EXIT_OK;
     }
     const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
-    printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f, "
-           "disc %.5f); %s/checkpoint.safetensors written\n",
+    printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f "
+           "albedo_gt %.5f, disc %.5f); %s/checkpoint.safetensors written\n",
            how, r.iteration, r.last.total, r.last.terms[0], r.last.terms[1], r.last.terms[2], r.last.terms[3],
-           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.disc, out);
+           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.terms[7], r.last.disc, out);
     if (r.end == HD_TRAIN_SIGNALLED) {
         fprintf(stderr, "hdnet train: stopped by a signal; continue with --resume\n");
         return HD_EXIT_FAIL;

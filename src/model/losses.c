@@ -8,12 +8,12 @@
 
 #define HD_SMOOTH_EPS 0.01f
 
-const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv"};
+const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt"};
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -30,7 +30,9 @@ hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
     b->mask = hd_calloc(B * HW, sizeof(float));
     b->coarse_normal = hd_calloc(B * 3 * HW, sizeof(float));
     b->has_normal = hd_calloc(B, 1);
-    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal) {
+    b->albedo_gt = hd_calloc(B * 3 * HW, sizeof(float));
+    b->has_albedo = hd_calloc(B, 1);
+    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo) {
         hd_pair_batch_free(b);
         return HD_ERR_NOMEM;
     }
@@ -43,6 +45,8 @@ void hd_pair_batch_free(hd_pair_batch *b)
     free(b->mask);
     free(b->coarse_normal);
     free(b->has_normal);
+    free(b->albedo_gt);
+    free(b->has_albedo);
     memset(b, 0, sizeof *b);
 }
 
@@ -188,6 +192,21 @@ double hd_loss_albedo_consistency(hd_losses *L, float scale)
     return sum / P;
 }
 
+/* mean_m(|A - A_gt|) per image with a ground-truth albedo, summed over i and j, mean over pairs. */
+double hd_loss_albedo_supervised(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        if (!L->batch->has_albedo[b]) continue;
+        sum += hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)b * 3 * HW : NULL, NULL,
+                          net->albedo + (size_t)b * 3 * HW, L->batch->albedo_gt + (size_t)b * 3 * HW,
+                          L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+    }
+    return sum / P;
+}
+
 /* L_s = mean_wx(|dx S| / max(|dx S|, 0.01)) + mean_wy(|dy S| / max(|dy S|, 0.01)). */
 double hd_loss_shading_smoothness(hd_losses *L, float scale)
 {
@@ -312,6 +331,7 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
     terms[HD_LOSS_LIGHT] = hd_loss_light(L, s[HD_LOSS_LIGHT]);
     terms[HD_LOSS_SREC] = hd_loss_shading_reconstruction(L, s[HD_LOSS_SREC]);
     terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
+    terms[HD_LOSS_ALBEDO_GT] = hd_loss_albedo_supervised(L, s[HD_LOSS_ALBEDO_GT]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

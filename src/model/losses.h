@@ -19,10 +19,12 @@ typedef enum hd_loss_term {
     HD_LOSS_LIGHT,   /* L_l: mean |l - l_hat| */
     HD_LOSS_SREC,    /* L_Srec: mean_m |S - s(N, l)| */
     HD_LOSS_ADV,     /* L_adv: softplus(-D(m A s(N, l))) */
+    HD_LOSS_ALBEDO_GT, /* not the paper's: mean_m |A - A_gt| where ground truth exists (weight 0 in
+                        * both presets; anchors the scale A and S share, see docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 
-/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv"): CSV columns, the
+/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt"): CSV columns, the
  * --w-NAME options and the dump's loss.NAME tensors. */
 extern const char *const hd_loss_names[HD_LOSS_TERMS];
 
@@ -46,6 +48,8 @@ typedef struct hd_pair_batch {
     float *mask;          /* (B, HW), 1 where absent */
     float *coarse_normal; /* (B, 3, HW), 0 where absent */
     unsigned char *has_normal; /* (B) */
+    float *albedo_gt;          /* (B, 3, HW) ground-truth albedo, 0 where absent */
+    unsigned char *has_albedo; /* (B) */
 } hd_pair_batch;
 
 hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size);
@@ -74,6 +78,8 @@ double hd_loss_shading_smoothness(hd_losses *L, float scale);
 double hd_loss_normal_prior(hd_losses *L, float scale);
 double hd_loss_light(hd_losses *L, float scale);
 double hd_loss_shading_reconstruction(hd_losses *L, float scale);
+/* Not the paper's: mean_m |A - A_gt| over the images that have a ground-truth albedo. */
+double hd_loss_albedo_supervised(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render

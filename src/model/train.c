@@ -84,7 +84,8 @@ static hd_pair_batch chunk_of(const hd_trainer *t, int c)
     const hd_pair_batch *b = &t->batch;
     size_t first = (size_t)2 * c * t->micro, HW = (size_t)b->size * b->size;
     hd_pair_batch v = {t->micro, b->size, b->image + first * 3 * HW, b->mask + first * HW,
-                       b->coarse_normal + first * 3 * HW, b->has_normal + first};
+                       b->coarse_normal + first * 3 * HW, b->has_normal + first,
+                       b->albedo_gt + first * 3 * HW, b->has_albedo + first};
     return v;
 }
 
@@ -353,14 +354,18 @@ typedef struct pair_source {
     int *use_start; /* subject s uses use[use_start[s] .. use_start[s + 1]) */
     long *cum;      /* cum[s] = pairs in subjects before s; cum[subject_count] = all pairs */
     int size, stage;
+    int prior_gt;  /* the prior normals N_bar are the ground-truth normals (NAME.normal_gt.png) */
+    int albedo_gt; /* load the ground-truth albedo (NAME.albedo.png) for the albedo_gt term */
     uint64_t seed;
 } pair_source;
 
 /* Lists the usable samples and counts the pairs; *skipped = samples left out. */
-static hd_status pair_source_init(pair_source *src, const hd_dataset *ds, int stage, int *skipped, int *first_skipped)
+static hd_status pair_source_init(pair_source *src, const hd_dataset *ds, int stage, int prior_gt, int *skipped,
+                                  int *first_skipped)
 {
     src->ds = ds;
     src->stage = stage;
+    src->prior_gt = prior_gt;
     src->use = hd_calloc((size_t)ds->count + 1, sizeof(int));
     src->use_start = hd_calloc((size_t)ds->subject_count + 1, sizeof(int));
     src->cum = hd_calloc((size_t)ds->subject_count + 1, sizeof(long));
@@ -371,7 +376,7 @@ static hd_status pair_source_init(pair_source *src, const hd_dataset *ds, int st
     for (int s = 0; s < ds->subject_count; s++) {
         src->use_start[s] = n;
         for (int i = ds->subject_start[s]; i < ds->subject_start[s + 1]; i++) {
-            if (stage == 1 && !ds->samples[i].normal) {
+            if (stage == 1 && !(prior_gt ? ds->samples[i].normal_gt : ds->samples[i].normal)) {
                 if (*first_skipped < 0) *first_skipped = i;
                 ++*skipped;
                 continue;
@@ -430,8 +435,9 @@ static hd_status load_sample(const pair_source *src, int i, int flip, hd_pair_ba
     int size = src->size;
     size_t HW = (size_t)size * size;
     float *img = batch->image + (size_t)slot * 3 * HW, *mask = batch->mask + (size_t)slot * HW;
-    float *nrm = batch->coarse_normal + (size_t)slot * 3 * HW;
-    hd_image im = {0}, mk = {0}, nr = {0}, nd = {0}, nv = {0};
+    float *nrm = batch->coarse_normal + (size_t)slot * 3 * HW, *alb = batch->albedo_gt + (size_t)slot * 3 * HW;
+    const char *prior = src->prior_gt ? smp->normal_gt : smp->normal;
+    hd_image im = {0}, mk = {0}, nr = {0}, nd = {0}, nv = {0}, al = {0};
     hd_status s;
     if ((s = read_sized(smp->image, 3, size, &im)) != HD_OK) goto done;
     memcpy(img, im.data, 3 * HW * sizeof(float));
@@ -441,22 +447,30 @@ static hd_status load_sample(const pair_source *src, int i, int flip, hd_pair_ba
     } else {
         for (size_t p = 0; p < HW; p++) mask[p] = 1.0f;
     }
-    batch->has_normal[slot] = smp->normal != NULL;
-    if (smp->normal) {
-        if ((s = read_sized(smp->normal, 3, size, &nr)) != HD_OK || (s = hd_normal_decode(&nr, &nd, &nv)) != HD_OK) goto done;
+    batch->has_normal[slot] = prior != NULL;
+    if (prior) {
+        if ((s = read_sized(prior, 3, size, &nr)) != HD_OK || (s = hd_normal_decode(&nr, &nd, &nv)) != HD_OK) goto done;
         memcpy(nrm, nd.data, 3 * HW * sizeof(float));
         /* texels without a stored normal are outside the face */
         for (size_t p = 0; p < HW; p++) mask[p] *= nv.data[p] > 0.5f ? 1.0f : 0.0f;
     } else {
         if (src->stage == 1) {
-            s = hd_fail(HD_ERR_NOTFOUND, "%s: no coarse normals (%s.normal.png); stage 1 needs them", smp->image, smp->name);
+            s = hd_fail(HD_ERR_NOTFOUND, "%s: no prior normals (%s.%s.png); stage 1 needs them", smp->image, smp->name,
+                        src->prior_gt ? "normal_gt" : "normal");
             goto done;
         }
         memset(nrm, 0, 3 * HW * sizeof(float));
     }
+    batch->has_albedo[slot] = src->albedo_gt && smp->albedo;
+    if (batch->has_albedo[slot]) {
+        if ((s = read_sized(smp->albedo, 3, size, &al)) != HD_OK) goto done;
+        memcpy(alb, al.data, 3 * HW * sizeof(float));
+    } else {
+        memset(alb, 0, 3 * HW * sizeof(float));
+    }
     if (flip) {
-        float *planes[7] = {img, img + HW, img + 2 * HW, mask, nrm, nrm + HW, nrm + 2 * HW};
-        for (int k = 0; k < 7; k++)
+        float *planes[10] = {img, img + HW, img + 2 * HW, mask, nrm, nrm + HW, nrm + 2 * HW, alb, alb + HW, alb + 2 * HW};
+        for (int k = 0; k < 10; k++)
             for (int y = 0; y < size; y++) {
                 float *row = planes[k] + (size_t)y * size;
                 for (int x = 0; x < size / 2; x++) {
@@ -473,6 +487,7 @@ done:
     hd_image_free(&nr);
     hd_image_free(&nd);
     hd_image_free(&nv);
+    hd_image_free(&al);
     return s;
 }
 
@@ -650,7 +665,7 @@ static hd_status write_loss_plot(const char *path, const history *h)
 {
     static const float colours[HIST_COLS][3] = {
         {0.85f, 0.1f, 0.1f}, {0.1f, 0.6f, 0.1f}, {0.1f, 0.3f, 0.9f}, {0.9f, 0.6f, 0.0f}, {0.6f, 0.1f, 0.7f},
-        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.0f, 0.0f, 0.0f}, {0.7f, 0.4f, 0.2f}};
+        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.0f, 0.0f, 0.0f}, {0.7f, 0.4f, 0.2f}};
     const int Wd = 800, Ht = 400, margin = 10;
     hd_image img = {0};
     hd_status s = hd_image_alloc(&img, Wd, Ht, 3);
@@ -796,7 +811,8 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     }
     if ((s = hd_dataset_scan(o->data_dir, &ds, o->warn)) != HD_OK) goto done;
     int skipped, first_skipped;
-    if ((s = pair_source_init(&src, &ds, o->stage, &skipped, &first_skipped)) != HD_OK) goto done;
+    if ((s = pair_source_init(&src, &ds, o->stage, o->prior_normals_gt, &skipped, &first_skipped)) != HD_OK) goto done;
+    src.albedo_gt = o->weights.w[HD_LOSS_ALBEDO_GT] > 0.0f;
     if (skipped && o->warn) {
         char msg[600];
         snprintf(msg, sizeof msg, "stage 1 needs coarse normals: %d image(s) without NAME.normal.png left out (first: %s)",
@@ -922,10 +938,12 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         fprintf(csvf, ",%.9g,%.3f\n", res.disc, hd_seconds() - start);
         fflush(csvf);
         if (!o->quiet) {
-            char extra[160];
-            snprintf(extra, sizeof extra, "loss %.4f rec %.4f alb %.4f n %.4f l %.4f srec %.4f adv %.3f D %.3f", res.total,
-                     res.terms[HD_LOSS_REC], res.terms[HD_LOSS_ALBEDO], res.terms[HD_LOSS_NORMAL], res.terms[HD_LOSS_LIGHT],
-                     res.terms[HD_LOSS_SREC], res.terms[HD_LOSS_ADV], res.disc);
+            char extra[200];
+            int len = snprintf(extra, sizeof extra, "loss %.4f rec %.4f alb %.4f n %.4f l %.4f srec %.4f adv %.3f D %.3f",
+                               res.total, res.terms[HD_LOSS_REC], res.terms[HD_LOSS_ALBEDO], res.terms[HD_LOSS_NORMAL],
+                               res.terms[HD_LOSS_LIGHT], res.terms[HD_LOSS_SREC], res.terms[HD_LOSS_ADV], res.disc);
+            if (t.weights.w[HD_LOSS_ALBEDO_GT] > 0.0f && len > 0 && (size_t)len < sizeof extra)
+                snprintf(extra + len, sizeof extra - (size_t)len, " agt %.4f", res.terms[HD_LOSS_ALBEDO_GT]);
             hd_progress_update(&prog, t.iteration, extra);
         }
         int stop_signal = o->stop && *o->stop;
