@@ -147,6 +147,78 @@ static void test_paths(void)
     CHECK(hd_conv3x3_plan(&p, 0, 1, 5, 5, 1, 1, HD_ACT_NONE, 0.1f, HD_CONV_AUTO) == HD_ERR_ARG && !p);
 }
 
+/* The blocked-layout plans (nc16, the Common-Net's, oneDNN only) against the naive loops: forward,
+ * backward accumulating and backward_into overwriting, on shapes that take oneDNN's Winograd
+ * kernels (stride 1, channels in whole blocks, at least 32 pixels a side, odd sizes) and shapes
+ * that do not; and two runs giving the same bytes. */
+static void test_nc16(void)
+{
+#ifdef HD_HAVE_DNNL
+    static const shape shapes[] = {
+        {2, 16, 33, 35, 32, 1, HD_ACT_LRELU}, {1, 32, 37, 32, 48, 1, HD_ACT_NONE}, {1, 48, 32, 34, 16, 1, HD_ACT_LRELU},
+        {2, 32, 33, 33, 3, 1, HD_ACT_NONE},   {1, 20, 34, 33, 16, 1, HD_ACT_LRELU}, {2, 16, 15, 13, 16, 1, HD_ACT_LRELU},
+    };
+    for (size_t k = 0; k < sizeof shapes / sizeof shapes[0]; k++) {
+        const shape *s = &shapes[k];
+        int HW = s->H * s->W, Cp = hd_nc16_channels(s->C), OCp = hd_nc16_channels(s->OC);
+        size_t nx = (size_t)s->B * s->C * HW, nw = (size_t)s->OC * s->C * 9, no = (size_t)s->B * s->OC * HW;
+        size_t nxp = (size_t)s->B * Cp * HW, nop = (size_t)s->B * OCp * HW;
+        float *x = randn(nx, -1, 1), *w = randn(nw, -0.3f, 0.3f), *b = randn(s->OC, -0.3f, 0.3f);
+        float *dout = randn(no, -1, 1), *g0x = randn(nx, -1, 1), *g0w = randn(nw, -1, 1), *g0b = randn(s->OC, -1, 1);
+        result ref;
+        if (!run_path(s, HD_CONV_NAIVE, x, w, b, dout, g0x, g0w, g0b, 1, &ref)) {
+            test_failures++;
+            continue;
+        }
+        float *xb = malloc(nxp * sizeof(float)), *ob = malloc(nop * sizeof(float)), *gb = malloc(nop * sizeof(float));
+        float *dxb = malloc(nxp * sizeof(float)), *out[2], *dinp[2], *dw[2], *db[2], *into = malloc(nx * sizeof(float));
+        hd_nc16_from_plain(xb, x, s->B, s->C, HW);
+        for (int run = 0; run < 2; run++) {
+            out[run] = malloc(no * sizeof(float));
+            dinp[run] = dup(g0x, nx), dw[run] = dup(g0w, nw), db[run] = dup(g0b, (size_t)s->OC);
+            hd_conv3x3 *p;
+            if (hd_conv3x3_plan_nc16(&p, s->B, s->C, s->H, s->W, s->OC, s->stride, s->act, 0.1f) != HD_OK) {
+                fprintf(stderr, "plan nc16: %s\n", hd_error());
+                test_failures++;
+                continue;
+            }
+            hd_conv3x3_forward(p, ob, xb, w, b);
+            hd_nc16_to_plain(out[run], ob, s->B, s->OC, HW, 0);
+            /* accumulating: dinp = g0x + dx */
+            hd_nc16_from_plain(gb, dout, s->B, s->OC, HW);
+            hd_nc16_from_plain(dxb, g0x, s->B, s->C, HW);
+            hd_conv3x3_backward(p, dxb, dw[run], db[run], gb, ob, xb, w);
+            hd_nc16_to_plain(dinp[run], dxb, s->B, s->C, HW, 0);
+            /* overwriting: into = dx, over a buffer of garbage */
+            hd_nc16_from_plain(gb, dout, s->B, s->OC, HW);
+            for (size_t i = 0; i < nxp; i++) dxb[i] = 1e30f;
+            hd_conv3x3_backward_into(p, dxb, NULL, NULL, gb, ob, xb, w);
+            hd_nc16_to_plain(into, dxb, s->B, s->C, HW, 0);
+            hd_conv3x3_free(p);
+        }
+        for (size_t i = 0; i < nx; i++) into[i] += g0x[i];
+        size_t at;
+        double e[5] = {rel_diff(out[0], ref.out, no, &at), rel_diff(dinp[0], ref.dinp, nx, &at), rel_diff(into, ref.dinp, nx, &at),
+                       rel_diff(dw[0], ref.dw, nw, &at), rel_diff(db[0], ref.db, (size_t)s->OC, &at)};
+        double worst = fmax(fmax(fmax(e[0], e[1]), fmax(e[2], e[3])), e[4]);
+        printf("conv nc16     %dx%dx%dx%d->%d s%d%s: max relative difference to naive %.2e (out %.1e, dinp %.1e, into %.1e, dw %.1e, db %.1e)\n",
+               s->B, s->C, s->H, s->W, s->OC, s->stride, s->act ? " lrelu" : "", worst, e[0], e[1], e[2], e[3], e[4]);
+        if (!(worst <= 1e-5)) {
+            fprintf(stderr, "  nc16: differs from naive\n");
+            test_failures++;
+        }
+        CHECK(memcmp(out[0], out[1], no * sizeof(float)) == 0);
+        CHECK(memcmp(dinp[0], dinp[1], nx * sizeof(float)) == 0);
+        CHECK(memcmp(dw[0], dw[1], nw * sizeof(float)) == 0);
+        CHECK(memcmp(db[0], db[1], (size_t)s->OC * sizeof(float)) == 0);
+        for (int run = 0; run < 2; run++) free(out[run]), free(dinp[run]), free(dw[run]), free(db[run]);
+        free(xb), free(ob), free(gb), free(dxb), free(into);
+        free_result(&ref);
+        free(x), free(w), free(b), free(dout), free(g0x), free(g0w), free(g0b);
+    }
+#endif
+}
+
 static void test_adam(void)
 {
     /* p = 1, g = 0.5 then -0.25, lr 0.1, (0.9, 0.999, 1e-8), by hand:
@@ -193,6 +265,7 @@ int main(void)
 {
     hd_rng_seed(&rng, 99, 2);
     test_paths();
+    test_nc16();
     test_adam();
     test_init();
     return test_summary("test_conv");

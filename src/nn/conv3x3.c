@@ -11,6 +11,9 @@
  */
 #include <string.h>
 #include <cblas.h>
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
 #include "nn/conv3x3_impl.h"
 
 /* Budget of one im2col band, in floats (8 MB): bands of output rows are processed in turn. */
@@ -329,13 +332,39 @@ void hd_conv3x3_forward(hd_conv3x3 *p, float *out, const float *inp, const float
 #endif
     if (p->path == HD_CONV_NAIVE) naive_forward(p, out, inp, w, b);
     else portable_forward(p, out, inp, w, b);
-    if (p->act == HD_ACT_LRELU) {
-        size_t n = p->out_n;
-        float sl = p->slope;
+    if (p->act == HD_ACT_LRELU) hd_conv3x3_lrelu(out, p->out_n, p->slope);
+}
+
+/* g[i] *= (ref[i] > 0 ? 1 : slope) for i < n: the leaky ReLU in place (ref = g) and its backward
+ * (ref = the forward's output). Vectorised by hand: the compiler turns the select into a branch,
+ * a coin toss per value, which cost more than the large layers' convolutions themselves. Each
+ * value is multiplied by exactly 1 or slope, as the scalar tail does. */
+static void lrelu_scale(float *g, const float *ref, size_t n, float slope)
+{
+    size_t i = 0;
+#ifdef __AVX2__
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), sl = _mm256_set1_ps(slope);
+    for (; i + 8 <= n; i += 8) {
+        __m256 f = _mm256_blendv_ps(sl, one, _mm256_cmp_ps(_mm256_loadu_ps(ref + i), zero, _CMP_GT_OQ));
+        _mm256_storeu_ps(g + i, _mm256_mul_ps(_mm256_loadu_ps(g + i), f));
+    }
+#endif
+    for (; i < n; i++) g[i] *= ref[i] > 0.0f ? 1.0f : slope;
+}
+
+/* lrelu_scale over n values in chunks, the chunks shared among threads when n is large */
+static void lrelu_scale_par(float *g, const float *ref, size_t n, float slope)
+{
+    enum { CHUNK = 16384 };
+    long chunks = (long)((n + CHUNK - 1) / CHUNK);
 #pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
-        for (size_t i = 0; i < n; i++) out[i] = out[i] > 0.0f ? out[i] : sl * out[i];
+    for (long c = 0; c < chunks; c++) {
+        size_t at = (size_t)c * CHUNK, len = n - at < CHUNK ? n - at : CHUNK;
+        lrelu_scale(g + at, ref + at, len, slope);
     }
 }
+
+void hd_conv3x3_lrelu(float *x, size_t n, float slope) { lrelu_scale_par(x, x, n, slope); }
 
 /* Shared by both backward entries: overwrite says whether dinp is overwritten. */
 static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout, const float *out,
@@ -343,13 +372,7 @@ static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *do
 {
     /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
      * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
-    if (p->act == HD_ACT_LRELU) {
-        size_t n = p->out_n;
-        float sl = p->slope;
-#pragma omp parallel for schedule(static) if (n > PAR_MIN / 8)
-        for (size_t i = 0; i < n; i++)
-            if (!(out[i] > 0.0f)) dout[i] *= sl;
-    }
+    if (p->act == HD_ACT_LRELU) lrelu_scale_par(dout, out, p->out_n, p->slope);
 #ifdef HD_HAVE_DNNL
     if (p->dnnl) {
         hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);

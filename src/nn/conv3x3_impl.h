@@ -19,6 +19,9 @@ struct hd_conv3x3 {
     void *dnnl;        /* oneDNN state, or NULL */
 };
 
+/* x = x > 0 ? x : slope x over n values, in place (conv3x3.c). */
+void hd_conv3x3_lrelu(float *x, size_t n, float slope);
+
 #ifdef HD_HAVE_DNNL
 /* Builds the oneDNN primitives of plan p (shape fields set); HD_OK or a reason. */
 hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p);
