@@ -219,6 +219,64 @@ static void test_nc16(void)
 #endif
 }
 
+/* The nc16 max pooling and upsampling against the plain ones, bit for bit (the same comparisons and
+ * sums), with many ties (values from a set of 4) and odd sizes; backward accumulating and
+ * overwriting (over garbage). */
+static void test_nc16_layers(void)
+{
+    static const int sizes[][4] = {{2, 20, 6, 10}, {1, 16, 7, 9}, {2, 3, 8, 4}};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        int B = sizes[k][0], C = sizes[k][1], H = sizes[k][2], W = sizes[k][3], Ho = H / 2, Wo = W / 2;
+        int Cp = hd_nc16_channels(C);
+        size_t n = (size_t)B * C * H * W, no = (size_t)B * C * Ho * Wo, np = (size_t)B * Cp * H * W, nop = (size_t)B * Cp * Ho * Wo;
+        float *x = malloc(n * sizeof(float)), *g = randn(no, -1, 1), *g0 = randn(n, -1, 1);
+        for (size_t i = 0; i < n; i++) x[i] = (float)hd_rng_below(&rng, 4) - 1.5f;
+        float *out = malloc(no * sizeof(float)), *dx = dup(g0, n), *xb = malloc(np * sizeof(float));
+        float *ob = malloc(nop * sizeof(float)), *gb = malloc(nop * sizeof(float)), *dxb = malloc(np * sizeof(float));
+        float *plain = malloc(n * sizeof(float)), *into = malloc(n * sizeof(float));
+        hd_maxpool2_forward(out, x, B, C, H, W);
+        hd_maxpool2_backward(dx, g, x, B, C, H, W);
+        hd_nc16_from_plain(xb, x, B, C, H * W);
+        hd_nc16_from_plain(gb, g, B, C, Ho * Wo);
+        hd_maxpool2_nc16_forward(ob, xb, B, C, H, W);
+        hd_nc16_to_plain(plain, ob, B, C, Ho * Wo, 0);
+        CHECK(memcmp(plain, out, no * sizeof(float)) == 0);
+        hd_nc16_from_plain(dxb, g0, B, C, H * W);
+        hd_maxpool2_nc16_backward(dxb, gb, xb, B, C, H, W);
+        hd_nc16_to_plain(plain, dxb, B, C, H * W, 0);
+        CHECK(memcmp(plain, dx, n * sizeof(float)) == 0);
+        for (size_t i = 0; i < np; i++) dxb[i] = 1e30f;
+        hd_maxpool2_nc16_backward_into(dxb, gb, xb, B, C, H, W);
+        hd_nc16_to_plain(into, dxb, B, C, H * W, 1); /* into = g0 + the gradient */
+        memcpy(plain, g0, n * sizeof(float));
+        hd_nc16_to_plain(plain, dxb, B, C, H * W, 1);
+        for (size_t i = 0; i < n; i++) CHECK(plain[i] == dx[i] || fabsf(plain[i] - dx[i]) <= 1e-6f * fabsf(dx[i]));
+        int padded_zero = 1;
+        for (long nb = 0; nb < (long)B * (Cp / 16); nb++)
+            for (size_t q = 0; q < (size_t)H * W; q++)
+                for (int l = 0; l < 16; l++)
+                    if ((nb % (Cp / 16)) * 16 + l >= C && dxb[((size_t)nb * H * W + q) * 16 + l] != 0.0f) padded_zero = 0;
+        CHECK(padded_zero);
+        printf("nc16 maxpool2 %dx%dx%dx%d: forward and backward (accumulating, overwriting) as the plain layer\n", B, C, H, W);
+        /* upsampling: nc16 against plain */
+        float *up = malloc(4 * n * sizeof(float)), *upb = malloc(4 * np * sizeof(float)), *du = dup(g0, n);
+        float *gu = randn(4 * n, -1, 1), *gub = malloc(4 * np * sizeof(float));
+        hd_upsample2_forward(up, x, B, C, H, W);
+        hd_upsample2_nc16_forward(upb, xb, B, C, H, W);
+        float *upp = malloc(4 * n * sizeof(float));
+        hd_nc16_to_plain(upp, upb, B, C, 4 * H * W, 0);
+        CHECK(memcmp(upp, up, 4 * n * sizeof(float)) == 0);
+        hd_upsample2_backward(du, gu, B, C, H, W);
+        hd_nc16_from_plain(gub, gu, B, C, 4 * H * W);
+        hd_nc16_from_plain(dxb, g0, B, C, H * W);
+        hd_upsample2_nc16_backward(dxb, gub, B, C, H, W);
+        hd_nc16_to_plain(plain, dxb, B, C, H * W, 0);
+        CHECK(memcmp(plain, du, n * sizeof(float)) == 0);
+        free(up), free(upb), free(du), free(gu), free(gub), free(upp);
+        free(x), free(g), free(g0), free(out), free(dx), free(xb), free(ob), free(gb), free(dxb), free(plain), free(into);
+    }
+}
+
 static void test_adam(void)
 {
     /* p = 1, g = 0.5 then -0.25, lr 0.1, (0.9, 0.999, 1e-8), by hand:
@@ -266,6 +324,7 @@ int main(void)
     hd_rng_seed(&rng, 99, 2);
     test_paths();
     test_nc16();
+    test_nc16_layers();
     test_adam();
     test_init();
     return test_summary("test_conv");

@@ -289,11 +289,15 @@ static void maxpool_fwd(const hd_unet *u, tensor *out, const tensor *in)
     else hd_maxpool2_forward(out->x, in->x, u->B, in->c, in->h, in->w);
 }
 
+/* in->g is overwritten: an encoder output feeds only its pooling */
 static void maxpool_bwd(const hd_unet *u, tensor *out, tensor *in)
 {
+    if (u->nc16) {
+        hd_maxpool2_nc16_backward_into(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
+        return;
+    }
     zero_grad(in, u->B);
-    if (u->nc16) hd_maxpool2_nc16_backward(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
-    else hd_maxpool2_backward(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
+    hd_maxpool2_backward(in->g, out->g, in->x, u->B, in->c, in->h, in->w);
 }
 
 void hd_unet_forward(hd_unet *u, const float *inp, float *out)

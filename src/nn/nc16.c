@@ -4,6 +4,9 @@
  * (image, block, pixel) with the 16 lanes innermost. Padded lanes stay zero. */
 #include <string.h>
 #include "nn/nn.h"
+#ifdef __AVX2__
+#include <immintrin.h>
+#endif
 
 #define L HD_NC16_BLOCK
 
@@ -61,7 +64,44 @@ void hd_maxpool2_nc16_forward(float *out, const float *inp, int B, int C, int H,
     }
 }
 
-void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W)
+/* One pixel's 16 lanes of the max-pooling backward: a, b, c, d are the 2x2 block's inputs in row
+ * order, g the gradient at the output; the gradient goes to the first maximum (the forward's
+ * comparisons, in its order), the other three get 0. Written (overwrite) or added. */
+static inline void pool_grad_px(float *da, float *db, float *dc, float *dd, const float *a, const float *b,
+                                const float *c, const float *d, const float *g, int overwrite)
+{
+    int l = 0;
+#ifdef __AVX2__
+    for (; l < L; l += 8) {
+        __m256 va = _mm256_loadu_ps(a + l), vb = _mm256_loadu_ps(b + l), vc = _mm256_loadu_ps(c + l),
+               vd = _mm256_loadu_ps(d + l), vg = _mm256_loadu_ps(g + l);
+        __m256 sb = _mm256_cmp_ps(vb, va, _CMP_GT_OQ), m = _mm256_blendv_ps(va, vb, sb);
+        __m256 sc = _mm256_cmp_ps(vc, m, _CMP_GT_OQ);
+        m = _mm256_blendv_ps(m, vc, sc);
+        __m256 sd = _mm256_cmp_ps(vd, m, _CMP_GT_OQ);
+        __m256 wc = _mm256_andnot_ps(sd, sc), wb = _mm256_andnot_ps(_mm256_or_ps(sc, sd), sb);
+        __m256 wa = _mm256_andnot_ps(_mm256_or_ps(sb, _mm256_or_ps(sc, sd)), _mm256_castsi256_ps(_mm256_set1_epi32(-1)));
+        __m256 ga = _mm256_and_ps(wa, vg), gb = _mm256_and_ps(wb, vg), gc = _mm256_and_ps(wc, vg), gd = _mm256_and_ps(sd, vg);
+        if (!overwrite) {
+            ga = _mm256_add_ps(_mm256_loadu_ps(da + l), ga), gb = _mm256_add_ps(_mm256_loadu_ps(db + l), gb);
+            gc = _mm256_add_ps(_mm256_loadu_ps(dc + l), gc), gd = _mm256_add_ps(_mm256_loadu_ps(dd + l), gd);
+        }
+        _mm256_storeu_ps(da + l, ga), _mm256_storeu_ps(db + l, gb);
+        _mm256_storeu_ps(dc + l, gc), _mm256_storeu_ps(dd + l, gd);
+    }
+#endif
+    for (; l < L; l++) {
+        float m = a[l], *best = da + l;
+        if (overwrite) da[l] = db[l] = dc[l] = dd[l] = 0.0f;
+        if (b[l] > m) best = db + l, m = b[l];
+        if (c[l] > m) best = dc + l, m = c[l];
+        if (d[l] > m) best = dd + l;
+        *best += g[l];
+    }
+}
+
+static void maxpool_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W,
+                                  int overwrite)
 {
     /* forward: out = max of the block; the gradient goes to the first maximum in row order */
     int CB = hd_nc16_channels(C) / L, Ho = H / 2, Wo = W / 2;
@@ -73,17 +113,24 @@ void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp,
         for (int y = 0; y < Ho; y++)
             for (int x = 0; x < Wo; x++) {
                 size_t ia = ((size_t)(2 * y) * W + 2 * x) * L, ib = ia + L, ic = ia + (size_t)W * L, id = ic + L;
-                const float *gv = g + ((size_t)y * Wo + x) * L;
-                for (int l = 0; l < L; l++) {
-                    size_t best = ia + l;
-                    float m = src[best];
-                    if (src[ib + l] > m) best = ib + l, m = src[best];
-                    if (src[ic + l] > m) best = ic + l, m = src[best];
-                    if (src[id + l] > m) best = id + l;
-                    dsrc[best] += gv[l];
-                }
+                pool_grad_px(dsrc + ia, dsrc + ib, dsrc + ic, dsrc + id, src + ia, src + ib, src + ic, src + id,
+                             g + ((size_t)y * Wo + x) * L, overwrite);
             }
+        if (overwrite && (H % 2 || W % 2)) { /* rows and columns the pooling never read */
+            for (int y = 0; y < H; y++)
+                for (int x = (y < 2 * Ho ? 2 * Wo : 0); x < W; x++) memset(dsrc + ((size_t)y * W + x) * L, 0, L * sizeof(float));
+        }
     }
+}
+
+void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W)
+{
+    maxpool_nc16_backward(dinp, dout, inp, B, C, H, W, 0);
+}
+
+void hd_maxpool2_nc16_backward_into(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W)
+{
+    maxpool_nc16_backward(dinp, dout, inp, B, C, H, W, 1);
 }
 
 void hd_upsample2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W)

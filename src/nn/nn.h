@@ -57,6 +57,8 @@ void hd_nc16_to_plain(float *plain, const float *nc16, int B, int C, int HW, int
 /* 2x2 max pooling and nearest 2x upsampling in nc16 (C counts real channels). */
 void hd_maxpool2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W);
 void hd_maxpool2_nc16_backward(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W);
+/* As hd_maxpool2_nc16_backward, but dinp is overwritten (no zeroing needed first). */
+void hd_maxpool2_nc16_backward_into(float *dinp, const float *dout, const float *inp, int B, int C, int H, int W);
 void hd_upsample2_nc16_forward(float *out, const float *inp, int B, int C, int H, int W);
 void hd_upsample2_nc16_backward(float *dinp, const float *dout, int B, int C, int H, int W);
 
