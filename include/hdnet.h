@@ -94,6 +94,12 @@ hd_status hd_image_convert(const hd_image *src, int channels, hd_image *dst);
 /* Writes PNG with 8 or 16 bits per channel (values clamped to [0, 1]); 1-4 channels. The file is
  * written to a temporary name and renamed, so a failure leaves no partial output. */
 hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
+/* How hard the PNG writer compresses. COMPACT (what hd_image_write_png does): zlib level 3 with
+ * libpng's adaptive per-row filter choice. FAST: the UP filter on every row and zlib's run-length
+ * strategy, about 4x faster; files a few percent larger on smooth maps, more on photographs. For
+ * bulk output such as `hdnet synth` (docs/performance.md, "Synthetic data"). */
+typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1 } hd_png_effort;
+hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
 hd_status hd_image_write_pfm(const char *path, const hd_image *img);
 /* Writes exact float32 PFM when path ends in ".pfm", else an 8-bit PNG. */
@@ -318,12 +324,13 @@ typedef struct hd_synth_subject hd_synth_subject; /* one identity: shape, fine d
 typedef struct hd_synth_face {
     hd_image image;     /* 3: albedo * shading, clamped to [0, 1]; 0 outside the mask */
     hd_image mask;      /* 1: 1 on visible face texels, else 0 */
-    hd_image normal;    /* 3: coarse normals (the undeformed canonical mesh in the image's pose) */
+    hd_image normal;    /* 3: coarse normals (the canonical mesh in the image's pose, with the fit error) */
     hd_image albedo;    /* 3: ground-truth albedo in [0, 1] */
     hd_image normal_gt; /* 3: ground-truth unit normals (identity shape + fine detail, posed) */
     hd_image shading;   /* 1: ground-truth shading s(normal_gt, light), not clamped */
     float light[HD_SH_COEFFS];
     float yaw_deg, pitch_deg, roll_deg; /* the head's pose */
+    float coarse_yaw_deg, coarse_pitch_deg, coarse_roll_deg; /* the pose of the coarse normals' fit */
 } hd_synth_face;
 
 hd_status hd_synth_create(int size, hd_synth **synth);
@@ -333,10 +340,16 @@ int hd_synth_size(const hd_synth *synth);
 hd_status hd_synth_subject_make(const hd_synth *synth, uint64_t seed, int subject, hd_synth_subject **out);
 void hd_synth_subject_free(hd_synth_subject *subject);
 /* Image `image` of a subject: its own light and (with pose_jitter_deg > 0) pose, drawn from the
- * stream (seed, subject, image). `out` must be zero-initialised ({0}) or hold the images of an
- * earlier call, whose buffers are then reused; free it with hd_synth_face_free. */
+ * stream (seed, subject, image). The coarse normals model a 3DMM fit: the canonical mesh in the
+ * image's pose (coarse_error_deg 0), or with a random zero-mean fit error of size E =
+ * coarse_error_deg: yaw, pitch and roll off by E/2 (standard deviation), the mesh deformed like a
+ * random identity, and a smooth tilt field of E RMS (docs/synthetic-data.md).
+ * `out` must be zero-initialised ({0}) or hold the images of an earlier call, whose buffers are
+ * then reused; free it with hd_synth_face_free. */
+#define HD_SYNTH_COARSE_ERROR_DEFAULT 20.0f /* hdnet synth's default: about 23 degrees of error */
+#define HD_SYNTH_COARSE_ERROR_MAX 40.0f
 hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
-                          float pose_jitter_deg, hd_synth_face *out);
+                          float pose_jitter_deg, float coarse_error_deg, hd_synth_face *out);
 void hd_synth_face_free(hd_synth_face *face);
 /* Writes the SPEC section 5 files of one face as dir/NAME.png, NAME.mask.png, NAME.normal.png,
  * NAME.albedo.png, NAME.normal_gt.png, NAME.shading.png (16 bit, s/2), NAME.shading.pfm and
@@ -346,7 +359,8 @@ hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_
 typedef struct hd_synth_options {
     int subjects, per_subject, size;
     uint64_t seed;
-    float pose_jitter_deg; /* maximum yaw, pitch and roll, degrees (0: frontal) */
+    float pose_jitter_deg;  /* maximum yaw, pitch and roll, degrees (0: frontal) */
+    float coarse_error_deg; /* the coarse normals' fit error (hd_synth_render); 0: exact pose, no shape error */
 } hd_synth_options;
 /* Called now and then with the number of images written (may be NULL). */
 typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);

@@ -1,8 +1,9 @@
 #!/bin/sh
 # synth_cli.sh: `hdnet synth` and `hdnet eval` from the command line: a tiny set has every SPEC
-# section 5 file and a preview; the same seed gives the same files; its ground truth, laid out as
-# `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
-# the baselines under it; a model is scored too; bad options give the documented exit codes.
+# section 5 file and a preview; the same seed gives the same files; --coarse-error changes only the
+# coarse normals; the set's ground truth, laid out as `hdnet decompose` writes predictions, scores
+# zero errors and 100 % lighting classification with the baselines under it; a model is scored too;
+# bad options give the documented exit codes.
 set -u
 TEST=synth_cli
 . "$(dirname "$0")/cli_common.shlib"
@@ -17,6 +18,13 @@ done
 expect_saying 0 "synth 6/6" "$HDNET" synth again --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --threads 1
 cmp -s set/subject_0001/0001.png again/subject_0001/0001.png || fail "same seed, different image"
 cmp -s set/subject_0001/0001.light.txt again/subject_0001/0001.light.txt || fail "same seed, different light"
+cmp -s set/subject_0001/0001.normal.png again/subject_0001/0001.normal.png || fail "same seed, different coarse normals"
+# --coarse-error 0 (exact pose, undeformed mesh) changes the coarse normals and nothing else
+expect_saying 0 "synth 6/6" "$HDNET" synth exact --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --coarse-error 0
+cmp -s set/subject_0001/0001.normal.png exact/subject_0001/0001.normal.png && fail "--coarse-error 0 gives the default's coarse normals"
+for f in 0001.png 0001.mask.png 0001.albedo.png 0001.normal_gt.png 0001.shading.pfm 0001.light.txt; do
+    cmp -s "set/subject_0001/$f" "exact/subject_0001/$f" || fail "--coarse-error changed $f"
+done
 
 # ground truth as a prediction, in hdnet decompose's layout
 for d in set/subject_*; do
@@ -43,6 +51,7 @@ grep "^hdnet model" out.log | grep -q -- " - " && { cat out.log >&2; fail "the m
 # usage errors and failures
 expect_saying 2 "subjects" "$HDNET" synth x --per-subject 2
 expect_saying 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
+expect_saying 2 "coarse-error" "$HDNET" synth x --subjects 1 --per-subject 1 --coarse-error 50
 expect_saying 2 "exactly one" "$HDNET" eval set
 expect_saying 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
 expect_saying 1 "" "$HDNET" eval set --pred no_such_pred

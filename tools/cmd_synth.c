@@ -16,21 +16,24 @@ static void on_progress(void *ctx, long done, long total)
 int cmd_synth(int argc, char **argv)
 {
     int subjects = 0, per_subject = 0, size = 256, seed = 1, threads = 0;
-    float jitter = 0.0f;
+    float jitter = 0.0f, coarse_error = HD_SYNTH_COARSE_ERROR_DEFAULT;
     const hd_opt opts[] = {
         {"subjects", 0, HD_OPT_INT, &subjects, "N", "number of subjects (identities); required"},
         {"per-subject", 0, HD_OPT_INT, &per_subject, "K", "images per subject, each with its own light (and pose); required"},
         {"size", 0, HD_OPT_INT, &size, "S", "side of the aligned texture in pixels (default 256; 16..4096)"},
         {"seed", 0, HD_OPT_INT, &seed, "X", "random seed; the same seed gives the same set (default 1)"},
         {"pose-jitter", 0, HD_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
+        {"coarse-error", 0, HD_OPT_FLOAT, &coarse_error, "DEG",
+         "size of the coarse normals' fit error: smooth tilt RMS DEG, pose error DEG/2 (default 20: about 23 degrees off; 0: exact pose)"},
         {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
-        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--threads N]",
+        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--threads N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
-        "YYYY.mask.png, YYYY.normal.png (coarse normals: the undeformed canonical mesh), and the\n"
+        "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh with\n"
+        "a random pose and shape error, see --coarse-error), and the\n"
         "ground truth YYYY.albedo.png, YYYY.normal_gt.png, YYYY.shading.png (16 bit, shading/2),\n"
         "YYYY.shading.pfm (exact) and YYYY.light.txt; plus OUT/preview.sheet.png, a sheet of the first\n"
         "subjects (albedo, normals, shading, images). A subject keeps its shape and albedo across\n"
@@ -45,13 +48,15 @@ int cmd_synth(int argc, char **argv)
     if (per_subject < 1) return hd_usage_error(&spec, "--per-subject K (K >= 1) is required");
     if (size < 16 || size > 4096) return hd_usage_error(&spec, "--size %d outside [16, 4096]", size);
     if (!(jitter >= 0.0f && jitter <= 45.0f)) return hd_usage_error(&spec, "--pose-jitter %g outside [0, 45]", jitter);
+    if (!(coarse_error >= 0.0f && coarse_error <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_usage_error(&spec, "--coarse-error %g outside [0, %g]", coarse_error, HD_SYNTH_COARSE_ERROR_MAX);
     if (threads < 0) return hd_usage_error(&spec, "--threads %d must be >= 0", threads);
     if (seed < 0) return hd_usage_error(&spec, "--seed %d must be >= 0", seed);
     if ((long)subjects * per_subject > 100000000L) return hd_usage_error(&spec, "too many images (%d x %d)", subjects, per_subject);
     if (threads > 0) hd_set_threads(threads);
     /* Thousands of pictures: each still appears whole (rename), but is not fsynced one by one. */
     hd_set_durable_writes(0);
-    hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter};
+    hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter, coarse_error};
     hd_progress p;
     hd_progress_start(&p, "synth", (long)subjects * per_subject);
     if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return hd_report("synth");

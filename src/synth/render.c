@@ -6,7 +6,9 @@
  * detail gradient tilts them (the fine shape), and
  *     shading s = sum_k l_k b_k(n),  image = clamp(albedo * s, 0, 1).
  * Texels off the mesh, or whose smooth or detailed normal faces away (z <= 0), are masked out.
- * The coarse normals are the undeformed canonical mesh's, interpolated the same way, same pose. */
+ * The coarse normals play a 3DMM fit: the canonical mesh's, interpolated the same way, in the
+ * image's pose; with a coarse error E > 0, the fit's pose and shape are off by a random,
+ * zero-mean error of size E (coarse_fit). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -78,6 +80,19 @@ static inline float shade(const float l[HD_SH_COEFFS], float x, float y, float z
            l[6] * c3 * (3.0f * Z * Z - 1.0f) + l[8] * c4 * (X * X - Y * Y);
 }
 
+/* Texel i masked out: 0 in every plane. */
+static void clear_texel(hd_synth_face *f, int i, size_t P)
+{
+    f->mask.data[i] = 0.0f;
+    f->shading.data[i] = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        f->image.data[k * P + i] = 0.0f;
+        f->normal.data[k * P + i] = 0.0f;
+        f->albedo.data[k * P + i] = 0.0f;
+        f->normal_gt.data[k * P + i] = 0.0f;
+    }
+}
+
 void hd_synth_face_free(hd_synth_face *f)
 {
     if (!f) return;
@@ -89,23 +104,125 @@ void hd_synth_face_free(hd_synth_face *f)
     hd_image_free(&f->shading);
 }
 
+/* The modelled 3DMM fit of one image (the coarse normals), drawn from its own stream so that the
+ * image's pose and light are the same whatever the error. With size E > 0, three zero-mean parts:
+ *   pose   yaw, pitch and roll each off by a normal draw of standard deviation E * COARSE_POSE
+ *          (clipped at 2.5 standard deviations);
+ *   shape  the canonical mesh deformed like a random identity, E * COARSE_SHAPE identity spreads
+ *          (at most one);
+ *   tilt   a smooth height field h = sum_w sin(k_w . x + phi_w) of COARSE_WAVES plane waves (1 to
+ *          3 cycles across the texture, random directions and phases) whose gradient tilts the
+ *          normals by E degrees RMS: the fit's local shape errors.
+ * Every draw is symmetric about 0, so the error averages out over images. At E = 20 (hdnet
+ * synth's default) the coarse normals are off by about 23 degrees on average. */
+#define COARSE_STREAM 0xC0A45E5EED5ull
+#define COARSE_POSE 0.5f
+#define COARSE_SHAPE 0.05f
+#define COARSE_WAVES 6
+/* splitmix64's finaliser: a bijective 64-bit hash. */
+static uint64_t mix64(uint64_t z)
+{
+    z += 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+typedef struct coarse_fit {
+    float R[9];                   /* the fit's pose */
+    float gain;                   /* tan(E) / RMS |grad h|; 0 without error */
+    float kx[COARSE_WAVES], ky[COARSE_WAVES]; /* wave vectors, radians per texel */
+    float *cx, *sx, *cy, *sy;     /* (COARSE_WAVES, S): cos, sin of k_x x and of k_y y + phi */
+} coarse_fit;
+
+/* Draws the fit of image `image` into fit (whose tables hold 4 * COARSE_WAVES * S floats) and f's
+ * coarse pose; cn (V, 3) gets the fitted mesh's posed vertex normals; pos (V, 3) is scratch. */
+static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int image, float E, hd_synth_face *f,
+                            coarse_fit *fit, float *pos, float *cn)
+{
+    const int V = s->mesh.nv, S = s->size;
+    fit->gain = 0.0f;
+    f->coarse_yaw_deg = f->yaw_deg, f->coarse_pitch_deg = f->pitch_deg, f->coarse_roll_deg = f->roll_deg;
+    if (!(E > 0.0f)) {
+        pose_matrix(f->yaw_deg, f->pitch_deg, f->roll_deg, fit->R);
+        for (int v = 0; v < V; v++) rotate(fit->R, s->canon_normal + 3 * v, cn + 3 * v);
+        return;
+    }
+    /* PCG streams that differ in a few bits of the increment start out correlated, so the fit's
+     * seed and stream are hashed from (seed, subject, image) */
+    uint64_t id = ((uint64_t)(uint32_t)sub->subject << 24) | (uint64_t)((uint32_t)image & 0xFFFFFFu);
+    hd_rng r;
+    hd_rng_seed(&r, mix64(sub->seed ^ mix64(id ^ COARSE_STREAM)), mix64(id + COARSE_STREAM));
+    float e[3];
+    for (int k = 0; k < 3; k++) {
+        float z = hd_rng_normal(&r);
+        e[k] = COARSE_POSE * E * (z < -2.5f ? -2.5f : z > 2.5f ? 2.5f : z);
+    }
+    f->coarse_yaw_deg += e[0];
+    f->coarse_pitch_deg += e[1];
+    f->coarse_roll_deg += e[2];
+    syn_shape_make(&s->mesh, &r, fminf(1.0f, COARSE_SHAPE * E), pos); /* beyond 1 the jaw can fold */
+    hd_mesh_vertex_normals(&s->mesh, pos, cn);
+    pose_matrix(f->coarse_yaw_deg, f->coarse_pitch_deg, f->coarse_roll_deg, fit->R);
+    for (int v = 0; v < V; v++) rotate(fit->R, cn + 3 * v, cn + 3 * v);
+    /* the tilt waves; E|grad h|^2 = sum_w |k_w|^2 / 2 over the phases */
+    double k2 = 0;
+    for (int w = 0; w < COARSE_WAVES; w++) {
+        double cycles = hd_rng_range(&r, 1.0f, 3.0f), theta = hd_rng_range(&r, 0.0f, 2.0f * (float)M_PI);
+        double phi = hd_rng_range(&r, 0.0f, 2.0f * (float)M_PI), k = 2.0 * M_PI * cycles / S;
+        fit->kx[w] = (float)(k * cos(theta));
+        fit->ky[w] = (float)(k * sin(theta));
+        k2 += k * k;
+        for (int t = 0; t < S; t++) {
+            double ax = fit->kx[w] * (t + 0.5), ay = fit->ky[w] * (t + 0.5) + phi;
+            fit->cx[w * S + t] = (float)cos(ax), fit->sx[w * S + t] = (float)sin(ax);
+            fit->cy[w * S + t] = (float)cos(ay), fit->sy[w * S + t] = (float)sin(ay);
+        }
+    }
+    fit->gain = (float)(tan(E * M_PI / 180.0) / sqrt(k2 / 2.0));
+}
+
+/* The coarse normal c (unit) at texel (x, y) tilted by the fit's height field:
+ * c' = normalize(c - g_x T_u - g_y T_v), with T the texture axes of the fit's pose projected on the
+ * tangent plane and g = gain * grad h, grad h = sum_w k_w cos(k_w . x + phi_w). */
+static void coarse_tilt(const coarse_fit *fit, int S, int x, int y, float c[3])
+{
+    float hx = 0.0f, hy = 0.0f;
+    for (int w = 0; w < COARSE_WAVES; w++) {
+        /* cos(a + b) = cos a cos b - sin a sin b */
+        float cw = fit->cx[w * S + x] * fit->cy[w * S + y] - fit->sx[w * S + x] * fit->sy[w * S + y];
+        hx += fit->kx[w] * cw;
+        hy += fit->ky[w] * cw;
+    }
+    const float *R = fit->R;
+    const float ax_u[3] = {R[0], R[3], R[6]}, ax_v[3] = {-R[1], -R[4], -R[7]};
+    float du = ax_u[0] * c[0] + ax_u[1] * c[1] + ax_u[2] * c[2], dv = ax_v[0] * c[0] + ax_v[1] * c[1] + ax_v[2] * c[2];
+    float g0 = fit->gain * hx, g1 = fit->gain * hy, m[3];
+    for (int k = 0; k < 3; k++) m[k] = c[k] - g0 * (ax_u[k] - du * c[k]) - g1 * (ax_v[k] - dv * c[k]);
+    float len = sqrtf(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    for (int k = 0; k < 3; k++) c[k] = m[k] / len;
+}
+
 hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int image, float pose_jitter_deg,
-                          hd_synth_face *out)
+                          float coarse_error_deg, hd_synth_face *out)
 {
     if (image < 0 || image >= 0xFFFFFF) return hd_fail(HD_ERR_ARG, "synth: image index %d out of range", image);
     if (!(pose_jitter_deg >= 0.0f && pose_jitter_deg <= 45.0f))
         return hd_fail(HD_ERR_RANGE, "synth: pose jitter %g outside [0, 45] degrees", pose_jitter_deg);
+    if (!(coarse_error_deg >= 0.0f && coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_fail(HD_ERR_RANGE, "synth: coarse-normal error %g outside [0, %g] degrees", coarse_error_deg,
+                       HD_SYNTH_COARSE_ERROR_MAX);
     const int S = s->size, V = s->mesh.nv;
     const size_t P = (size_t)S * S;
     hd_status st = HD_OK;
     hd_image *planes[6] = {&out->image, &out->mask, &out->normal, &out->albedo, &out->normal_gt, &out->shading};
     static const int channels[6] = {3, 1, 3, 3, 3, 1};
-    /* reuse the buffers of a previous call when they fit (fresh pages cost more than the render) */
+    /* Reuse the buffers of a previous call when they fit (fresh pages cost more than the
+     * render). Texels off the mesh are 0 since their allocation and never written; the loop
+     * below writes every covered texel, 0 where it is masked out. */
     for (int k = 0; k < 6 && st == HD_OK; k++) {
         hd_image *im = planes[k];
-        if (im->data && im->width == S && im->height == S && im->channels == channels[k]) {
-            memset(im->data, 0, (size_t)channels[k] * P * sizeof(float));
-        } else {
+        if (!(im->data && im->width == S && im->height == S && im->channels == channels[k])) {
             hd_image_free(im);
             st = hd_image_alloc(im, S, S, channels[k]);
         }
@@ -114,9 +231,14 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
         hd_synth_face_free(out);
         return st;
     }
-    float *vn = hd_malloc((size_t)V * 6 * sizeof(float));
+    float *vn = hd_malloc(((size_t)V * 9 + (size_t)4 * COARSE_WAVES * S) * sizeof(float));
     if (!vn) return HD_ERR_NOMEM;
-    float *cn = vn + (size_t)V * 3;
+    float *cn = vn + (size_t)V * 3, *fit_pos = vn + (size_t)V * 6;
+    coarse_fit fit;
+    fit.cx = vn + (size_t)V * 9;
+    fit.sx = fit.cx + (size_t)COARSE_WAVES * S;
+    fit.cy = fit.sx + (size_t)COARSE_WAVES * S;
+    fit.sy = fit.cy + (size_t)COARSE_WAVES * S;
     hd_rng r;
     syn_rng(&r, sub->seed, sub->subject, image);
     float J = pose_jitter_deg;
@@ -126,13 +248,11 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
     draw_light(&r, out->light);
     float R[9];
     pose_matrix(out->yaw_deg, out->pitch_deg, out->roll_deg, R);
-    /* posed vertex normals of the subject's shape and of the canonical mesh (rotations carry
-     * normals unchanged in length) */
+    /* posed vertex normals of the subject's shape and of the fitted canonical mesh (rotations
+     * carry normals unchanged in length) */
     hd_mesh_vertex_normals(&s->mesh, sub->pos, vn);
-    for (int v = 0; v < V; v++) {
-        rotate(R, vn + 3 * v, vn + 3 * v);
-        rotate(R, s->canon_normal + 3 * v, cn + 3 * v);
-    }
+    for (int v = 0; v < V; v++) rotate(R, vn + 3 * v, vn + 3 * v);
+    coarse_fit_draw(s, sub, image, coarse_error_deg, out, &fit, fit_pos, cn);
     /* texture axes in the camera frame: +u is the face's +x, +v its -y */
     const float ax_u[3] = {R[0], R[3], R[6]}, ax_v[3] = {-R[1], -R[4], -R[7]};
     const int *tri = s->mesh.tri;
@@ -148,7 +268,10 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
         float n[3] = {b[0] * n0[0] + b[1] * n1[0] + b[2] * n2[0], b[0] * n0[1] + b[1] * n1[1] + b[2] * n2[1],
                       b[0] * n0[2] + b[1] * n1[2] + b[2] * n2[2]};
         float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (!(len > 1e-8f) || n[2] <= 0.0f) continue;
+        if (!(len > 1e-8f) || n[2] <= 0.0f) {
+            clear_texel(out, i, P);
+            continue;
+        }
         n[0] /= len, n[1] /= len, n[2] /= len;
         /* detail: n' = normalize(n - gx T_u - gy T_v), T the texture axes projected on the
          * tangent plane (the surface p + h n has normal n - grad h to first order) */
@@ -162,17 +285,25 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
         for (int k = 0; k < 3; k++) m[k] = n[k] - g0 * (ax_u[k] - du * n[k]) - g1 * (ax_v[k] - dv * n[k]);
         len = sqrtf(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
         m[0] /= len, m[1] /= len, m[2] /= len;
-        if (m[2] <= 0.0f) continue;
+        if (m[2] <= 0.0f) {
+            clear_texel(out, i, P);
+            continue;
+        }
         const float *c0 = cn + 3 * t[0], *c1 = cn + 3 * t[1], *c2 = cn + 3 * t[2];
         float c[3] = {b[0] * c0[0] + b[1] * c1[0] + b[2] * c2[0], b[0] * c0[1] + b[1] * c1[1] + b[2] * c2[1],
                       b[0] * c0[2] + b[1] * c1[2] + b[2] * c2[2]};
         len = sqrtf(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-        if (!(len > 1e-8f)) continue;
+        if (!(len > 1e-8f)) {
+            clear_texel(out, i, P);
+            continue;
+        }
+        for (int k = 0; k < 3; k++) c[k] /= len;
+        if (fit.gain != 0.0f) coarse_tilt(&fit, S, i % S, i / S, c);
         float s_val = shade(L, m[0], m[1], m[2]);
         msk[i] = 1.0f;
         sh[i] = s_val;
         for (int k = 0; k < 3; k++) {
-            nc[k * P + i] = c[k] / len;
+            nc[k * P + i] = c[k];
             ng[k * P + i] = m[k];
             float a = sub->albedo[k * P + i];
             alb[k * P + i] = a;
@@ -184,43 +315,61 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
     return HD_OK;
 }
 
+/* rgb = (n + 1) / 2 on the mask, 0 elsewhere: hd_normal_encode into a caller's buffer. */
+static void encode_normals(const hd_image *normal, const hd_image *mask, hd_image *rgb)
+{
+    size_t P = (size_t)normal->width * normal->height;
+    for (int c = 0; c < 3; c++)
+        for (size_t p = 0; p < P; p++)
+            rgb->data[c * P + p] = mask->data[p] > 0.5f ? (normal->data[c * P + p] + 1.0f) * 0.5f : 0.0f;
+}
+
 hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_face *f)
 {
     static const char *const suffix[] = {".png", ".mask.png", ".normal.png", ".albedo.png",
                                          ".normal_gt.png", ".shading.png", ".shading.pfm", ".light.txt"};
+    const hd_png_effort fast = HD_PNG_FAST; /* thousands of files: speed over the last few % of size */
+    const hd_image *planes[6] = {&f->image, &f->mask, &f->normal, &f->albedo, &f->normal_gt, &f->shading};
+    static const int channels[6] = {3, 1, 3, 3, 3, 1};
+    for (int k = 0; k < 6; k++)
+        if (!planes[k]->data || planes[k]->channels != channels[k] || planes[k]->width != f->shading.width ||
+            planes[k]->height != f->shading.height)
+            return hd_fail(HD_ERR_ARG, "%s/%s: not a rendered face (plane %d is %dx%dx%d)", dir, name, k,
+                           planes[k]->width, planes[k]->height, planes[k]->channels);
     char file[4096];
+    /* encoded normals, then s / 2 in its first plane; every value is written before use */
+    hd_image scratch = {f->shading.width, f->shading.height, 3, NULL};
+    if (!(scratch.data = hd_malloc((size_t)scratch.width * scratch.height * 3 * sizeof(float)))) return HD_ERR_NOMEM;
+    hd_image plane = {scratch.width, scratch.height, 1, scratch.data};
     hd_status st = HD_OK;
-    hd_image enc = {0}, half = {0};
     for (int k = 0; k < 8 && st == HD_OK; k++) {
-        if (snprintf(file, sizeof file, "%s/%s%s", dir, name, suffix[k]) >= (int)sizeof file)
-            return hd_fail(HD_ERR_RANGE, "%s/%s: path too long", dir, name);
-        switch (k) {
-        case 0: st = hd_image_write_png(file, &f->image, 8); break;
-        case 1: st = hd_image_write_png(file, &f->mask, 8); break;
-        case 2:
-            st = hd_normal_encode(&f->normal, &f->mask, &enc);
-            if (st == HD_OK) st = hd_image_write_png(file, &enc, 16);
-            hd_image_free(&enc);
+        if (snprintf(file, sizeof file, "%s/%s%s", dir, name, suffix[k]) >= (int)sizeof file) {
+            st = hd_fail(HD_ERR_RANGE, "%s/%s: path too long", dir, name);
             break;
-        case 3: st = hd_image_write_png(file, &f->albedo, 8); break;
+        }
+        switch (k) {
+        case 0: st = hd_image_write_png_effort(file, &f->image, 8, fast); break;
+        case 1: st = hd_image_write_png_effort(file, &f->mask, 8, fast); break;
+        case 2:
+            encode_normals(&f->normal, &f->mask, &scratch);
+            st = hd_image_write_png_effort(file, &scratch, 16, fast);
+            break;
+        case 3: st = hd_image_write_png_effort(file, &f->albedo, 8, fast); break;
         case 4:
-            st = hd_normal_encode(&f->normal_gt, &f->mask, &enc);
-            if (st == HD_OK) st = hd_image_write_png(file, &enc, 16);
-            hd_image_free(&enc);
+            encode_normals(&f->normal_gt, &f->mask, &scratch);
+            st = hd_image_write_png_effort(file, &scratch, 16, fast);
             break;
         case 5: {
             /* shading.png stores s / 2 in 16 bits (shading up to 2) */
-            st = hd_image_alloc(&half, f->shading.width, f->shading.height, 1);
-            if (st != HD_OK) break;
             size_t P = (size_t)f->shading.width * f->shading.height;
-            for (size_t i = 0; i < P; i++) half.data[i] = 0.5f * f->shading.data[i];
-            st = hd_image_write_png(file, &half, 16);
-            hd_image_free(&half);
+            for (size_t i = 0; i < P; i++) plane.data[i] = 0.5f * f->shading.data[i];
+            st = hd_image_write_png_effort(file, &plane, 16, fast);
             break;
         }
         case 6: st = hd_image_write_pfm(file, &f->shading); break;
         case 7: st = hd_light_write(file, f->light); break;
         }
     }
+    hd_image_free(&scratch);
     return st;
 }

@@ -74,10 +74,10 @@ static void lab_to_rgb(float L, float a, float b, float rgb[3])
     }
 }
 
-/* The deformed shape of a subject: global scales, then the bumps. */
-static void make_shape(const hd_mesh *m, hd_rng *r, float *pos)
+void syn_shape_make(const hd_mesh *m, hd_rng *r, float gain, float *pos)
 {
-    float sx = 1.0f + 0.05f * clipped_normal(r), sy = 1.0f + 0.05f * clipped_normal(r), sz = 1.0f + 0.1f * clipped_normal(r);
+    float sx = 1.0f + gain * 0.05f * clipped_normal(r), sy = 1.0f + gain * 0.05f * clipped_normal(r),
+          sz = 1.0f + gain * 0.1f * clipped_normal(r);
     for (int v = 0; v < m->nv; v++) {
         pos[3 * v] = m->pos[3 * v] * sx;
         pos[3 * v + 1] = m->pos[3 * v + 1] * sy;
@@ -85,7 +85,7 @@ static void make_shape(const hd_mesh *m, hd_rng *r, float *pos)
     }
     for (int k = 0; k < NBUMPS; k++) {
         const bump *b = &BUMPS[k];
-        float amp = SHAPE_GAIN * b->amp_std * clipped_normal(r);
+        float amp = gain * SHAPE_GAIN * b->amp_std * clipped_normal(r);
         float len = sqrtf(b->dir[0] * b->dir[0] + b->dir[1] * b->dir[1] + b->dir[2] * b->dir[2]);
         for (int side = 0; side < 2; side++) {
             int anchor = side ? b->mirror : b->vertex;
@@ -331,7 +331,7 @@ hd_status hd_synth_subject_make(const hd_synth *s, uint64_t seed, int subject, h
     }
     hd_rng r;
     syn_rng(&r, seed, subject, -1);
-    make_shape(&s->mesh, &r, sub->pos);
+    syn_shape_make(&s->mesh, &r, 1.0f, sub->pos);
     hd_status st = make_detail(s, &r, sub->grad);
     if (st != HD_OK) {
         hd_synth_subject_free(sub);

@@ -80,6 +80,11 @@ static inline float syn_noise_at(const syn_noise_view *nv, int size, int x, int 
 }
 void syn_noise_view_pick(syn_noise_view *nv, const float *field, int size, hd_rng *r);
 
+/* A deformed canonical mesh pos (V, 3): global scales in width, length and depth, then the
+ * landmark bumps (subject.c, table BUMPS), every deviation times gain; gain 1 is a subject's
+ * identity, drawn from r in a fixed order. */
+void syn_shape_make(const hd_mesh *m, hd_rng *r, float gain, float *pos);
+
 /* Builds the region maps and noise fields of a generator whose mesh and raster are loaded. */
 hd_status syn_regions_build(hd_synth *s);
 

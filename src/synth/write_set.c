@@ -66,7 +66,7 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
         st = hd_synth_subject_make(s, o->seed, rsub, &sub);
         for (int k = 0; k < imgs && st == HD_OK; k++) {
             hd_synth_face f = {0};
-            st = hd_synth_render(s, sub, k, o->pose_jitter_deg, &f);
+            st = hd_synth_render(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, &f);
             if (st != HD_OK) break;
             int y0 = rsub * (cell + gap);
             if (k == 0) {
@@ -103,6 +103,9 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
         return hd_fail(HD_ERR_RANGE, "synth: --per-subject %d outside [1, 10000]", o->per_subject);
     if (!(o->pose_jitter_deg >= 0.0f && o->pose_jitter_deg <= 45.0f))
         return hd_fail(HD_ERR_RANGE, "synth: --pose-jitter %g outside [0, 45] degrees", o->pose_jitter_deg);
+    if (!(o->coarse_error_deg >= 0.0f && o->coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_fail(HD_ERR_RANGE, "synth: --coarse-error %g outside [0, %g] degrees", o->coarse_error_deg,
+                       HD_SYNTH_COARSE_ERROR_MAX);
     hd_synth *s = NULL;
     hd_status st = hd_synth_create(o->size, &s);
     if (st != HD_OK) return st;
@@ -147,7 +150,7 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 char dir[4096], name[32];
                 snprintf(dir, sizeof dir, "%s/subject_%04d", out, s0 + j);
                 snprintf(name, sizeof name, "%04d", image);
-                hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, &f);
+                hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg, &f);
                 if (e == HD_OK) e = hd_synth_face_write(dir, name, &f);
                 if (e != HD_OK) note_error(&fe, e);
                 long now;
