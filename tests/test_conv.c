@@ -194,6 +194,27 @@ static void test_nc16(void)
             for (size_t i = 0; i < nxp; i++) dxb[i] = 1e30f;
             hd_conv3x3_backward_into(p, dxb, NULL, NULL, gb, ob, xb, w);
             hd_nc16_to_plain(into, dxb, s->B, s->C, HW, 0);
+            /* the first 16 channels only (a head), where there are more */
+            if (run == 0 && s->C > 16) {
+                CHECK(hd_conv3x3_plan_dinp_head(p, 16) == HD_OK);
+                float *dwh = dup(g0w, nw), *dbh = dup(g0b, (size_t)s->OC), *head = malloc(nx * sizeof(float));
+                hd_nc16_from_plain(gb, dout, s->B, s->OC, HW);
+                for (size_t i = 0; i < nxp; i++) dxb[i] = 1e30f;
+                hd_conv3x3_backward_head_into(p, dxb, dwh, dbh, gb, ob, xb, w);
+                hd_nc16_to_plain(head, dxb, s->B, s->C, HW, 0);
+                double eh = 0.0, mh = 1e-6;
+                for (int n = 0; n < s->B; n++)
+                    for (size_t i = 0; i < (size_t)16 * HW; i++) {
+                        size_t at = (size_t)n * s->C * HW + i;
+                        mh = fmax(mh, fabs(ref.dinp[at] - g0x[at]));
+                        eh = fmax(eh, fabs(head[at] + g0x[at] - ref.dinp[at]));
+                    }
+                printf("conv nc16     %dx%dx%dx%d->%d: backward data onto the first 16 channels: max relative difference %.2e\n",
+                       s->B, s->C, s->H, s->W, s->OC, eh / mh);
+                CHECK(eh / mh < 1e-5);
+                CHECK(memcmp(dwh, dw[0], nw * sizeof(float)) == 0 && memcmp(dbh, db[0], (size_t)s->OC * sizeof(float)) == 0);
+                free(dwh), free(dbh), free(head);
+            }
             hd_conv3x3_free(p);
         }
         for (size_t i = 0; i < nx; i++) into[i] += g0x[i];

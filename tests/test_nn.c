@@ -580,6 +580,17 @@ static void test_net_layouts(void)
                what[k], worst[k], worst[k] > 1e-4 ? "  FAIL" : "");
         if (worst[k] > 1e-4) test_failures++;
     }
+    /* without an input gradient (the blocked net then skips the input's channels in dec1a) */
+    memset(g1, 0, total * sizeof(float)), memset(g2, 0, total * sizeof(float));
+    hd_unet_forward(fast, x, o1);
+    hd_unet_forward(ref, x, o2);
+    hd_unet_backward(fast, dout, dbn, NULL);
+    hd_unet_backward(ref, dout, dbn, NULL);
+    double m = 1e-6, e = 0.0;
+    for (size_t i = 0; i < total; i++) m = fmax(m, fabs(g2[i]));
+    for (size_t i = 0; i < total; i++) e = fmax(e, fabs(g1[i] - g2[i]) / m);
+    printf("common-net auto vs naive, no input gradient: param grads max relative difference %.2e%s\n", e, e > 1e-4 ? "  FAIL" : "");
+    if (e > 1e-4) test_failures++;
     free(p), free(g1), free(g2), free(x), free(o1), free(o2), free(dout), free(dbn), free(dx1), free(dx2);
     hd_unet_free(fast);
     hd_unet_free(ref);

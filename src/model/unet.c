@@ -177,6 +177,9 @@ hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int
         }
         st = hd_conv3x3_plan(&u->conv[l], B, ci, H >> lev, W >> lev, co, 1, act, 0.1f, path);
     }
+    /* dec1a: a backward-data primitive onto the upsampled part of cat[1] only, for the backwards
+     * that want no input gradient (the input's channels are a quarter of dec1a's at cin 32) */
+    if (st == HD_OK && u->nc16 && hd_conv3x3_plan_dinp_head(u->conv[DEC1A], 2 * width) != HD_OK) hd_clear_error();
     if (st == HD_OK && u->nc16 && cin % HD_NC16_BLOCK) {
         size_t n = (size_t)width * hd_nc16_channels(cin) * 9;
         u->enc0_w = hd_calloc(n, sizeof(float));
@@ -347,7 +350,11 @@ void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, f
     if (dinp && u->nc16) zero_grad(&u->inp, B);
     conv_bwd(u, DEC1C, &u->out, &u->d1b, 1);
     conv_bwd(u, DEC1B, &u->d1b, &u->d1a, 1);
-    conv_bwd(u, DEC1A, &u->d1a, &u->cat[1], 1);
+    if (!dinp_net && u->nc16) /* the input's channels of cat[1] need no gradient */
+        hd_conv3x3_backward_head_into(u->conv[DEC1A], u->cat[1].g, u->dwt[DEC1A], u->dbias[DEC1A], u->d1a.g,
+                                      u->d1a.x, u->cat[1].x, u->wt[DEC1A]);
+    else
+        conv_bwd(u, DEC1A, &u->d1a, &u->cat[1], 1);
     zero_grad(&u->dbk[2], B);
     up_concat_backward(u, &u->cat[1], &u->dbk[2], dinp_net, numel(&u->inp), B);
     for (int l = 2; l <= 4; l++) {

@@ -368,16 +368,22 @@ void hd_conv3x3_lrelu(float *x, size_t n, float slope) { lrelu_scale_par(x, x, n
 
 /* Shared by both backward entries: overwrite says whether dinp is overwritten. */
 static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout, const float *out,
-                     const float *inp, const float *w, int overwrite)
+                     const float *inp, const float *w, int overwrite, int head)
 {
     /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
      * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
     if (p->act == HD_ACT_LRELU) lrelu_scale_par(dout, out, p->out_n, p->slope);
 #ifdef HD_HAVE_DNNL
+    if (p->dnnl && head && dinp && hd_conv3x3_dnnl_head(p)) {
+        hd_conv3x3_dnnl_backward_head(p, dinp, dout, w);
+        dinp = NULL; /* done */
+    }
     if (p->dnnl) {
         hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);
         return;
     }
+#else
+    (void)head;
 #endif
     if (dinp && overwrite) memset(dinp, 0, p->in_n * sizeof(float));
     if (p->path == HD_CONV_NAIVE) naive_backward(p, dinp, dw, db, dout, inp, w);
@@ -387,11 +393,26 @@ static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *do
 void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
                          const float *out, const float *inp, const float *w)
 {
-    backward(p, dinp, dw, db, dout, out, inp, w, 0);
+    backward(p, dinp, dw, db, dout, out, inp, w, 0, 0);
 }
 
 void hd_conv3x3_backward_into(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
                               const float *out, const float *inp, const float *w)
 {
-    backward(p, dinp, dw, db, dout, out, inp, w, 1);
+    backward(p, dinp, dw, db, dout, out, inp, w, 1, 0);
+}
+
+hd_status hd_conv3x3_plan_dinp_head(hd_conv3x3 *p, int c_head)
+{
+#ifdef HD_HAVE_DNNL
+    if (p->dnnl && p->nc16) return hd_conv3x3_dnnl_plan_head(p, c_head);
+#endif
+    (void)c_head;
+    return hd_fail(HD_ERR_ARG, "conv3x3: a gradient head needs an nc16 plan (oneDNN)");
+}
+
+void hd_conv3x3_backward_head_into(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,
+                                   const float *out, const float *inp, const float *w)
+{
+    backward(p, dinp, dw, db, dout, out, inp, w, 1, 1);
 }

@@ -46,6 +46,13 @@ typedef struct dn {
     const float *last_src; /* the input of the last forward, held by src.prim */
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
     int act_pass;          /* the forward has no post-op: the leaky ReLU is a pass of our own */
+    dnnl_alg_kind_t bd_alg; /* the algorithm backward data took */
+    /* backward data onto the first c_head input channels only (hd_conv3x3_plan_dinp_head), one
+     * image per call: weights w(:, :c_head) seen through a strided view */
+    dnnl_primitive_t bwd_head;
+    view bh_w;
+    dnnl_memory_t bh_ddst, bh_dsrc;
+    int c_head;
 } dn;
 
 static dnnl_engine_t engine;
@@ -201,6 +208,9 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
         DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_any, &d_any,
                                                     strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd));
+        d->bd_alg = dnnl_convolution_direct;
+    } else {
+        d->bd_alg = dnnl_convolution_winograd;
     }
     DN(dnnl_primitive_create(&d->bwd_data, dpd));
     if (scratch_size(dpd) > scratch) scratch = scratch_size(dpd);
@@ -256,10 +266,77 @@ fail:
     return HD_ERR_ARG;
 }
 
+hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head)
+{
+    dn *d = p->dnnl;
+    if (!d || !p->nc16 || c_head < 1 || c_head % HD_NC16_BLOCK || c_head > p->C || d->bwd_head)
+        return hd_fail(HD_ERR_ARG, "conv3x3: a head of %d input channels needs a fresh nc16 plan of more", c_head);
+    dnnl_primitive_desc_t fpd = NULL, dpd = NULL;
+    dnnl_primitive_attr_t attr = NULL;
+    size_t scratch = 0;
+    dnnl_dims_t sdims = {1, c_head, p->H, p->W}, wdims = {p->OC, c_head, 3, 3}, bdims = {p->OC},
+                ddims = {1, p->OC, p->Ho, p->Wo}, wstrides = {(dnnl_dim_t)p->C * 9, 9, 3, 1};
+    dnnl_dims_t strides = {p->stride, p->stride}, pad_l = {1, 1};
+    dnnl_dims_t pad_r = {(p->Ho - 1) * p->stride + 3 - p->H - 1, (p->Wo - 1) * p->stride + 3 - p->W - 1};
+    dnnl_memory_desc_t s_md, d_md, w_any, w_user, b_md;
+    dnnl_convolution_desc_t fdesc, ddesc;
+    DN(dnnl_memory_desc_init_by_tag(&s_md, 4, sdims, dnnl_f32, dnnl_nChw16c));
+    DN(dnnl_memory_desc_init_by_tag(&d_md, 4, ddims, dnnl_f32, dnnl_nChw16c));
+    DN(dnnl_memory_desc_init_by_tag(&w_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_strides(&w_user, 4, wdims, dnnl_f32, wstrides));
+    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
+    DN(attr_user_scratch(&attr));
+    /* the forward of the same shape, as the hint backward data needs */
+    DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, d->bd_alg, &s_md, &w_any, &b_md, &d_md,
+                                          strides, pad_l, pad_r));
+    DN(dnnl_primitive_desc_create(&fpd, &fdesc, attr, engine, NULL));
+    DN(dnnl_convolution_backward_data_desc_init(&ddesc, d->bd_alg, &s_md, &w_any, &d_md, strides, pad_l, pad_r));
+    DN(dnnl_primitive_desc_create(&dpd, &ddesc, attr, engine, fpd));
+    DN(dnnl_primitive_create(&d->bwd_head, dpd));
+    scratch = scratch_size(dpd);
+    DN(make_view(&d->bh_w, &w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
+    DN(dnnl_memory_create(&d->bh_ddst, &d_md, engine, DNNL_MEMORY_NONE));
+    DN(dnnl_memory_create(&d->bh_dsrc, &s_md, engine, DNNL_MEMORY_NONE));
+    const dnnl_memory_desc_t *sp = NULL;
+    DN(dnnl_memory_get_memory_desc(d->scratch, &sp));
+    if (scratch > dnnl_memory_desc_get_size(sp)) { /* a larger scratchpad, once */
+        dnnl_memory_desc_t sp_md;
+        dnnl_dims_t spdims = {(dnnl_dim_t)scratch};
+        DN(dnnl_memory_desc_init_by_tag(&sp_md, 1, spdims, dnnl_u8, dnnl_x));
+        dnnl_memory_t bigger;
+        DN(dnnl_memory_create(&bigger, &sp_md, engine, DNNL_MEMORY_ALLOCATE));
+        dnnl_memory_destroy(d->scratch);
+        d->scratch = bigger;
+    }
+    d->c_head = c_head;
+    dnnl_primitive_desc_destroy(fpd);
+    dnnl_primitive_desc_destroy(dpd);
+    dnnl_primitive_attr_destroy(attr);
+    return HD_OK;
+fail:
+    if (fpd) dnnl_primitive_desc_destroy(fpd);
+    if (dpd) dnnl_primitive_desc_destroy(dpd);
+    if (attr) dnnl_primitive_attr_destroy(attr);
+    if (d->bwd_head) dnnl_primitive_destroy(d->bwd_head);
+    d->bwd_head = NULL;
+    free_view(&d->bh_w);
+    if (d->bh_ddst) dnnl_memory_destroy(d->bh_ddst);
+    if (d->bh_dsrc) dnnl_memory_destroy(d->bh_dsrc);
+    d->bh_ddst = d->bh_dsrc = NULL;
+    return HD_ERR_ARG;
+}
+
+int hd_conv3x3_dnnl_head(const hd_conv3x3 *p) { return p->dnnl ? ((const dn *)p->dnnl)->c_head : 0; }
+
+
 void hd_conv3x3_dnnl_free(hd_conv3x3 *p)
 {
     dn *d = p->dnnl;
     if (!d) return;
+    if (d->bwd_head) dnnl_primitive_destroy(d->bwd_head);
+    free_view(&d->bh_w);
+    if (d->bh_ddst) dnnl_memory_destroy(d->bh_ddst);
+    if (d->bh_dsrc) dnnl_memory_destroy(d->bh_dsrc);
     if (d->fwd) dnnl_primitive_destroy(d->fwd);
     if (d->bwd_data) dnnl_primitive_destroy(d->bwd_data);
     if (d->bwd_weights) dnnl_primitive_destroy(d->bwd_weights);
@@ -353,6 +430,21 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_stream_wait(stream);
         if (db)
             for (int o = 0; o < p->OC; o++) db[o] += d->dbias_buf[o];
+    }
+    dnnl_stream_wait(stream);
+}
+
+void hd_conv3x3_dnnl_backward_head(hd_conv3x3 *p, float *dinp, const float *dout, const float *w)
+{
+    dn *d = p->dnnl;
+    dnnl_memory_t wt = view_in(d, &d->bh_w, w);
+    size_t in_img = p->in_n / (size_t)p->B, out_img = p->out_n / (size_t)p->B;
+    for (int n = 0; n < p->B; n++) {
+        dnnl_memory_set_data_handle(d->bh_ddst, (void *)(dout + n * out_img));
+        dnnl_memory_set_data_handle(d->bh_dsrc, dinp + n * in_img);
+        dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, d->bh_ddst}, {DNNL_ARG_WEIGHTS, wt},
+                                   {DNNL_ARG_DIFF_SRC, d->bh_dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
+        dnnl_primitive_execute(d->bwd_head, stream, 4, args);
     }
     dnnl_stream_wait(stream);
 }

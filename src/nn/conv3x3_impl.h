@@ -31,6 +31,11 @@ void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const 
  * otherwise accumulated into. */
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
                               const float *inp, const float *w, int overwrite);
+/* The backward-data primitive onto the first c_head input channels (nc16 plans). */
+hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head);
+int hd_conv3x3_dnnl_head(const hd_conv3x3 *p); /* c_head, or 0 */
+/* dinp's first c_head channels of every image = conv^T(dout, w) there (overwritten). */
+void hd_conv3x3_dnnl_backward_head(hd_conv3x3 *p, float *dinp, const float *dout, const float *w);
 #endif
 
 #endif /* HD_CONV3X3_IMPL_H */

@@ -51,6 +51,14 @@ static inline int hd_nc16_channels(int C) { return (C + 15) / 16 * 16; }
  * only with oneDNN (HD_ERR_ARG otherwise). */
 hd_status hd_conv3x3_plan_nc16(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
                                hd_act act, float slope);
+/* Backward data onto the first c_head input channels only (a multiple of 16, at most C), for an
+ * input whose other channels need no gradient (the Common-Net's own input in its last
+ * concatenation): prepares the plan once (HD_ERR_ARG if it is not an nc16 plan); then
+ * hd_conv3x3_backward_head_into overwrites those channels of dinp in every image, leaves the rest
+ * unspecified (on a plan without a head: as hd_conv3x3_backward_into), and accumulates dw, db. */
+hd_status hd_conv3x3_plan_dinp_head(hd_conv3x3 *plan, int c_head);
+void hd_conv3x3_backward_head_into(hd_conv3x3 *plan, float *dinp, float *dw, float *db, float *dout,
+                                   const float *out, const float *inp, const float *w);
 /* Layout conversions: plain (B, C, HW) <-> nc16; to_plain accumulates when `accumulate`. */
 void hd_nc16_from_plain(float *nc16, const float *plain, int B, int C, int HW);
 void hd_nc16_to_plain(float *plain, const float *nc16, int B, int C, int HW, int accumulate);
