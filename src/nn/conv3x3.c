@@ -10,6 +10,7 @@
  * K = 9 C the im2col depth, N = HoWo output pixels.
  */
 #include <string.h>
+#include <omp.h>
 #include <cblas.h>
 #ifdef __AVX2__
 #include <immintrin.h>
@@ -22,7 +23,26 @@
  * a parallel region costs more than a small layer. */
 #define PAR_MIN 2000000.0
 
+/* oneDNN runs every primitive on all threads, however small; a layer of fewer multiply-adds than
+ * this (the Common-Net's levels of 16 and 8 pixels, 0.02-0.3 ms on one thread) gains nothing from
+ * a second thread and loses most when the machine is shared, where every parallel region waits
+ * for its slowest thread: such plans are made and run with one OpenMP thread. */
+#define SERIAL_MACS 25e6
+
 int hd_conv3x3_out_h(const hd_conv3x3 *p) { return p->Ho; }
+
+/* Around oneDNN calls of a serial plan: one thread, then the caller's count again. */
+static int serial_begin(const hd_conv3x3 *p)
+{
+    if (!p->serial) return 0;
+    int n = omp_get_max_threads();
+    omp_set_num_threads(1);
+    return n;
+}
+static void serial_end(int n)
+{
+    if (n) omp_set_num_threads(n);
+}
 int hd_conv3x3_out_w(const hd_conv3x3 *p) { return p->Wo; }
 
 /* Fills the shape fields of a new plan; NULL (with reason) on a bad shape. */
@@ -39,6 +59,7 @@ static hd_conv3x3 *new_plan(int B, int C, int H, int W, int OC, int stride, hd_a
     p->Ho = (H - 1) / stride + 1;
     p->Wo = (W - 1) / stride + 1;
     p->macs = 9.0 * B * C * OC * p->Ho * p->Wo;
+    p->serial = p->macs < SERIAL_MACS;
     p->in_n = (size_t)B * (nc16 ? hd_nc16_channels(C) : C) * H * W;
     p->out_n = (size_t)B * (nc16 ? hd_nc16_channels(OC) : OC) * p->Ho * p->Wo;
     return p;
@@ -53,7 +74,9 @@ hd_status hd_conv3x3_plan(hd_conv3x3 **plan, int B, int C, int H, int W, int OC,
     hd_status st = HD_OK;
 #ifdef HD_HAVE_DNNL
     if (path == HD_CONV_AUTO) {
+        int nt = serial_begin(p);
         st = hd_conv3x3_dnnl_plan(p);
+        serial_end(nt);
         if (st == HD_OK) {
             p->path = HD_CONV_AUTO;
             *plan = p;
@@ -90,7 +113,9 @@ hd_status hd_conv3x3_plan_nc16(hd_conv3x3 **plan, int B, int C, int H, int W, in
 #ifdef HD_HAVE_DNNL
     hd_conv3x3 *p = new_plan(B, C, H, W, OC, stride, act, slope, 1);
     if (!p) return C < 1 || B < 1 || H < 1 || W < 1 || OC < 1 || (stride != 1 && stride != 2) ? HD_ERR_ARG : HD_ERR_NOMEM;
+    int nt = serial_begin(p);
     hd_status st = hd_conv3x3_dnnl_plan(p);
+    serial_end(nt);
     if (st != HD_OK) {
         hd_conv3x3_free(p);
         return st;
@@ -326,7 +351,9 @@ void hd_conv3x3_forward(hd_conv3x3 *p, float *out, const float *inp, const float
 {
 #ifdef HD_HAVE_DNNL
     if (p->dnnl) {
+        int nt = serial_begin(p);
         hd_conv3x3_dnnl_forward(p, out, inp, w, b);
+        serial_end(nt);
         return;
     }
 #endif
@@ -374,12 +401,14 @@ static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *do
      * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
     if (p->act == HD_ACT_LRELU) lrelu_scale_par(dout, out, p->out_n, p->slope);
 #ifdef HD_HAVE_DNNL
-    if (p->dnnl && head && dinp && hd_conv3x3_dnnl_head(p)) {
-        hd_conv3x3_dnnl_backward_head(p, dinp, dout, w);
-        dinp = NULL; /* done */
-    }
     if (p->dnnl) {
+        int nt = serial_begin(p);
+        if (head && dinp && hd_conv3x3_dnnl_head(p)) {
+            hd_conv3x3_dnnl_backward_head(p, dinp, dout, w);
+            dinp = NULL; /* done */
+        }
         hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);
+        serial_end(nt);
         return;
     }
 #else
@@ -405,7 +434,12 @@ void hd_conv3x3_backward_into(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
 hd_status hd_conv3x3_plan_dinp_head(hd_conv3x3 *p, int c_head)
 {
 #ifdef HD_HAVE_DNNL
-    if (p->dnnl && p->nc16) return hd_conv3x3_dnnl_plan_head(p, c_head);
+    if (p->dnnl && p->nc16) {
+        int nt = serial_begin(p);
+        hd_status st = hd_conv3x3_dnnl_plan_head(p, c_head);
+        serial_end(nt);
+        return st;
+    }
 #endif
     (void)c_head;
     return hd_fail(HD_ERR_ARG, "conv3x3: a gradient head needs an nc16 plan (oneDNN)");

@@ -9,6 +9,7 @@
 struct hd_conv3x3 {
     int B, C, H, W, OC, stride, Ho, Wo;
     double macs; /* multiply-adds of one forward */
+    int serial;        /* oneDNN plans: made and run on one OpenMP thread (small layers) */
     hd_act act;
     float slope;
     hd_conv_path path; /* the path actually taken: AUTO means oneDNN */
