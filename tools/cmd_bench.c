@@ -71,6 +71,7 @@ static int unet_layers(int w, int S, layer_shape *l)
 
 typedef struct conv_times {
     double fwd, bwd_data, bwd_weights; /* best seconds */
+    const char *kernel;                /* hd_conv3x3_kernel of the plan */
 } conv_times;
 
 /* Times one convolution shape (leaky ReLU fused, as in the net). */
@@ -82,6 +83,7 @@ static hd_status time_conv(int B, int C, int OC, int side, hd_act act, hd_conv_p
     hd_status st = blocked ? HD_OK : hd_conv3x3_plan(&p, B, C, side, side, OC, 1, act, 0.1f, path);
     if (st != HD_OK) return st;
     hd_clear_error();
+    t->kernel = hd_conv3x3_kernel(p);
     hd_rng rng;
     hd_rng_seed(&rng, 2, 1);
     int Cp = blocked ? hd_nc16_channels(C) : C, OCp = blocked ? hd_nc16_channels(OC) : OC;
@@ -183,9 +185,13 @@ int cmd_bench(int argc, char **argv)
     FILE *o = stdout;
     int J = a.json;
 
-    if (J) fprintf(o, "{\n");
-    else fprintf(o, "hdnet bench: size %d, batch %d, threads %d, width %d, best of %d\n", a.size, a.batch, a.threads,
-                 a.width, a.repeats);
+    /* the OpenMP wait policy decides how fast a waiting thread joins the next parallel region
+     * (a helper session may set passive for a shared machine): reported with the figures */
+    const char *wait = getenv("OMP_WAIT_POLICY");
+    if (!wait || !*wait) wait = "unset";
+    if (J) fprintf(o, "{\n\"omp_wait_policy\": \"%s\",\n", wait);
+    else fprintf(o, "hdnet bench: size %d, batch %d, threads %d, width %d, best of %d, OMP_WAIT_POLICY %s\n", a.size,
+                 a.batch, a.threads, a.width, a.repeats, wait);
     fflush(o);
     a.sgemm_peak_gflops = sgemm_peak(2048, a.repeats < 3 ? a.repeats : 3);
     double peak = a.sgemm_peak_gflops;
@@ -198,8 +204,8 @@ int cmd_bench(int argc, char **argv)
     if (layers) {
         if (J) fprintf(o, "\"layers\": [\n");
         else fprintf(o, "\nCommon-Net convolutions (oneDNN in its blocked layout when built with it; GFLOP/s, share of SGEMM peak)\n"
-                        "%-6s %5s %5s %5s | %9s %7s %5s | %9s %7s | %9s %7s\n",
-                     "layer", "C", "OC", "side", "fwd ms", "GFLOP/s", "peak", "bwd-d ms", "GFLOP/s", "bwd-w ms", "GFLOP/s");
+                        "%-6s %5s %5s %5s %-8s | %9s %7s %5s | %9s %7s | %9s %7s\n",
+                     "layer", "C", "OC", "side", "kernel", "fwd ms", "GFLOP/s", "peak", "bwd-d ms", "GFLOP/s", "bwd-w ms", "GFLOP/s");
         for (int k = 0; k < nl; k++) {
             conv_times t;
             if (time_conv(a.batch, ls[k].C, ls[k].OC, ls[k].side, k == nl - 1 ? HD_ACT_NONE : HD_ACT_LRELU,
@@ -207,12 +213,12 @@ int cmd_bench(int argc, char **argv)
                 return hd_report("bench");
             double fl = 2.0 * 9 * ls[k].C * ls[k].OC * (double)ls[k].side * ls[k].side * a.batch * 1e-9;
             if (J)
-                fprintf(o, "  {\"name\": \"%s\", \"C\": %d, \"OC\": %d, \"side\": %d, \"fwd_s\": %.6f, \"bwd_data_s\": %.6f, \"bwd_weights_s\": %.6f, \"fwd_gflops\": %.1f, \"bwd_data_gflops\": %.1f, \"bwd_weights_gflops\": %.1f}%s\n",
-                        ls[k].name, ls[k].C, ls[k].OC, ls[k].side, t.fwd, t.bwd_data, t.bwd_weights, fl / t.fwd,
+                fprintf(o, "  {\"name\": \"%s\", \"C\": %d, \"OC\": %d, \"side\": %d, \"kernel\": \"%s\", \"fwd_s\": %.6f, \"bwd_data_s\": %.6f, \"bwd_weights_s\": %.6f, \"fwd_gflops\": %.1f, \"bwd_data_gflops\": %.1f, \"bwd_weights_gflops\": %.1f}%s\n",
+                        ls[k].name, ls[k].C, ls[k].OC, ls[k].side, t.kernel, t.fwd, t.bwd_data, t.bwd_weights, fl / t.fwd,
                         fl / t.bwd_data, fl / t.bwd_weights, k == nl - 1 ? "" : ",");
             else
-                fprintf(o, "%-6s %5d %5d %5d | %9.3f %7.1f %4.0f%% | %9.3f %7.1f | %9.3f %7.1f\n", ls[k].name, ls[k].C,
-                        ls[k].OC, ls[k].side, t.fwd * 1e3, fl / t.fwd, peak > 0 ? 100 * fl / t.fwd / peak : 0.0,
+                fprintf(o, "%-6s %5d %5d %5d %-8s | %9.3f %7.1f %4.0f%% | %9.3f %7.1f | %9.3f %7.1f\n", ls[k].name,
+                        ls[k].C, ls[k].OC, ls[k].side, t.kernel, t.fwd * 1e3, fl / t.fwd, peak > 0 ? 100 * fl / t.fwd / peak : 0.0,
                         t.bwd_data * 1e3, fl / t.bwd_data, t.bwd_weights * 1e3, fl / t.bwd_weights);
             fflush(o);
         }

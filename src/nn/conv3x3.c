@@ -31,6 +31,14 @@
 
 int hd_conv3x3_out_h(const hd_conv3x3 *p) { return p->Ho; }
 
+const char *hd_conv3x3_kernel(const hd_conv3x3 *p)
+{
+#ifdef HD_HAVE_DNNL
+    if (p->dnnl) return hd_conv3x3_dnnl_winograd(p) ? "winograd" : "direct";
+#endif
+    return p->path == HD_CONV_NAIVE ? "naive" : "portable";
+}
+
 /* Around oneDNN calls of a serial plan: one thread, then the caller's count again. */
 static int serial_begin(const hd_conv3x3 *p)
 {

@@ -46,6 +46,7 @@ typedef struct dn {
     const float *last_src; /* the input of the last forward, held by src.prim */
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
     int act_pass;          /* the forward has no post-op: the leaky ReLU is a pass of our own */
+    int fwd_wino;          /* the forward took the Winograd kernels */
     dnnl_alg_kind_t bd_alg; /* the algorithm backward data took */
     /* backward data onto the first c_head input channels only (hd_conv3x3_plan_dinp_head), one
      * image per call: weights w(:, :c_head) seen through a strided view */
@@ -182,6 +183,7 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
                                                    &w_any, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
         dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL) == dnnl_success) {
         d->act_pass = p->act == HD_ACT_LRELU;
+        d->fwd_wino = 1;
     } else {
         fpd = NULL;
         DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any,
@@ -325,6 +327,8 @@ fail:
     d->bh_ddst = d->bh_dsrc = NULL;
     return HD_ERR_ARG;
 }
+
+int hd_conv3x3_dnnl_winograd(const hd_conv3x3 *p) { return p->dnnl && ((const dn *)p->dnnl)->fwd_wino; }
 
 int hd_conv3x3_dnnl_head(const hd_conv3x3 *p) { return p->dnnl ? ((const dn *)p->dnnl)->c_head : 0; }
 

@@ -32,6 +32,7 @@ void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const 
  * otherwise accumulated into. */
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
                               const float *inp, const float *w, int overwrite);
+int hd_conv3x3_dnnl_winograd(const hd_conv3x3 *p); /* the forward runs Winograd */
 /* The backward-data primitive onto the first c_head input channels (nc16 plans). */
 hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head);
 int hd_conv3x3_dnnl_head(const hd_conv3x3 *p); /* c_head, or 0 */

@@ -29,6 +29,9 @@ typedef enum hd_conv_path {
 hd_status hd_conv3x3_plan(hd_conv3x3 **plan, int B, int C, int H, int W, int OC, int stride,
                           hd_act act, float slope, hd_conv_path path);
 void hd_conv3x3_free(hd_conv3x3 *plan);
+/* The kernels a plan runs, for reports: "winograd" or "direct" (oneDNN; winograd where its forward
+ * takes it), "portable" or "naive". */
+const char *hd_conv3x3_kernel(const hd_conv3x3 *plan);
 int hd_conv3x3_out_h(const hd_conv3x3 *plan);
 int hd_conv3x3_out_w(const hd_conv3x3 *plan);
 /* out (B, OC, Ho, Wo) = act(conv(inp (B, C, H, W), w) + b) */
