@@ -39,6 +39,7 @@ const char *hd_conv3x3_kernel(const hd_conv3x3 *p)
     return p->path == HD_CONV_NAIVE ? "naive" : "portable";
 }
 
+#ifdef HD_HAVE_DNNL
 /* Around oneDNN calls of a serial plan: one thread, then the caller's count again. */
 static int serial_begin(const hd_conv3x3 *p)
 {
@@ -51,6 +52,7 @@ static void serial_end(int n)
 {
     if (n) omp_set_num_threads(n);
 }
+#endif
 int hd_conv3x3_out_w(const hd_conv3x3 *p) { return p->Wo; }
 
 /* Fills the shape fields of a new plan; NULL (with reason) on a bad shape. */
@@ -449,7 +451,7 @@ hd_status hd_conv3x3_plan_dinp_head(hd_conv3x3 *p, int c_head)
         return st;
     }
 #endif
-    (void)c_head;
+    (void)p, (void)c_head;
     return hd_fail(HD_ERR_ARG, "conv3x3: a gradient head needs an nc16 plan (oneDNN)");
 }
 
