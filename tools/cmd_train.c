@@ -22,7 +22,7 @@ static void warn(const char *message) { fprintf(stderr, "hdnet train: warning: %
 
 int cmd_train(int argc, char **argv)
 {
-    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse";
+    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0;
     float time_limit = 0, lr = 0;
@@ -53,6 +53,8 @@ int cmd_train(int argc, char **argv)
          "not the paper's: weight of mean_m|A - A_gt| on sets with NAME.albedo.png (default 0)"},
         {"prior-normals", 0, HD_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
+        {"light-target", 0, HD_OPT_STRING, &light_target, "fit|gt",
+         "l_hat of L_l: the least-squares fit (default) or, not the paper's, NAME.light.txt where present"},
         {"every", 0, HD_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
         {"seed", 0, HD_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, HD_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
@@ -85,6 +87,8 @@ int cmd_train(int argc, char **argv)
     if (resume && init) return hd_usage_error(&spec, "--resume and --init exclude each other");
     if (strcmp(prior, "coarse") != 0 && strcmp(prior, "gt") != 0)
         return hd_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
+    if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0)
+        return hd_usage_error(&spec, "--light-target must be fit or gt, not '%s'", light_target);
 
     hd_train_options o;
     hd_train_defaults(&o);
@@ -108,6 +112,7 @@ int cmd_train(int argc, char **argv)
     o.lr = lr;
     o.every = every;
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
+    o.light_target_gt = strcmp(light_target, "gt") == 0;
     o.seed = (uint64_t)seed;
     o.init_model = init;
     o.dump_grads = dump;

@@ -32,7 +32,10 @@ hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
     b->has_normal = hd_calloc(B, 1);
     b->albedo_gt = hd_calloc(B * 3 * HW, sizeof(float));
     b->has_albedo = hd_calloc(B, 1);
-    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo) {
+    b->light_gt = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
+    b->has_light = hd_calloc(B, 1);
+    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
+        !b->light_gt || !b->has_light) {
         hd_pair_batch_free(b);
         return HD_ERR_NOMEM;
     }
@@ -47,6 +50,8 @@ void hd_pair_batch_free(hd_pair_batch *b)
     free(b->has_normal);
     free(b->albedo_gt);
     free(b->has_albedo);
+    free(b->light_gt);
+    free(b->has_light);
     memset(b, 0, sizeof *b);
 }
 
@@ -112,6 +117,11 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
             for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
         /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
         if (L->hold_light_hat) continue;
+        if (batch->has_light && batch->has_light[b]) { /* --light-target gt */
+            memcpy(L->light_hat + (size_t)b * HD_SH_COEFFS, batch->light_gt + (size_t)b * HD_SH_COEFFS,
+                   HD_SH_COEFFS * sizeof(float));
+            continue;
+        }
         const float *src = target == HD_LIGHT_FROM_COARSE && batch->has_normal[b]
                                ? batch->coarse_normal + (size_t)b * 3 * HW : N;
         hd_status st = hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW, L->light_hat + (size_t)b * HD_SH_COEFFS);

@@ -50,6 +50,8 @@ typedef struct hd_pair_batch {
     unsigned char *has_normal; /* (B) */
     float *albedo_gt;          /* (B, 3, HW) ground-truth albedo, 0 where absent */
     unsigned char *has_albedo; /* (B) */
+    float *light_gt;           /* (B, 9) ground-truth light: l_hat where has_light (not the paper's) */
+    unsigned char *has_light;  /* (B) */
 } hd_pair_batch;
 
 hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size);
@@ -69,7 +71,7 @@ hd_status hd_losses_create(hd_losses *L, hd_net *net);
 void hd_losses_free(hd_losses *L);
 
 /* After hd_net_forward: computes s(N, l), the render m*A*s(N, l) and l_hat (from the coarse or the
- * predicted normals) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
+ * predicted normals; the batch's ground-truth light where it has one) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
 hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target);
 
 double hd_loss_reconstruction(hd_losses *L, float scale);

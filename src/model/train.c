@@ -85,7 +85,8 @@ static hd_pair_batch chunk_of(const hd_trainer *t, int c)
     size_t first = (size_t)2 * c * t->micro, HW = (size_t)b->size * b->size;
     hd_pair_batch v = {t->micro, b->size, b->image + first * 3 * HW, b->mask + first * HW,
                        b->coarse_normal + first * 3 * HW, b->has_normal + first,
-                       b->albedo_gt + first * 3 * HW, b->has_albedo + first};
+                       b->albedo_gt + first * 3 * HW, b->has_albedo + first,
+                       b->light_gt + first * HD_SH_COEFFS, b->has_light + first};
     return v;
 }
 
@@ -356,6 +357,7 @@ typedef struct pair_source {
     int size, stage;
     int prior_gt;  /* the prior normals N_bar are the ground-truth normals (NAME.normal_gt.png) */
     int albedo_gt; /* load the ground-truth albedo (NAME.albedo.png) for the albedo_gt term */
+    int light_gt;  /* l_hat is the ground-truth light (NAME.light.txt) where there is one */
     uint64_t seed;
 } pair_source;
 
@@ -460,6 +462,15 @@ static hd_status load_sample(const pair_source *src, int i, int flip, hd_pair_ba
             goto done;
         }
         memset(nrm, 0, 3 * HW * sizeof(float));
+    }
+    float *lgt = batch->light_gt + (size_t)slot * HD_SH_COEFFS;
+    batch->has_light[slot] = src->light_gt && smp->light;
+    if (batch->has_light[slot]) {
+        if ((s = hd_light_read(smp->light, lgt)) != HD_OK) goto done;
+        /* a mirrored face sees the mirrored light: the coefficients odd in x change sign */
+        if (flip) lgt[3] = -lgt[3], lgt[4] = -lgt[4], lgt[7] = -lgt[7];
+    } else {
+        memset(lgt, 0, HD_SH_COEFFS * sizeof(float));
     }
     batch->has_albedo[slot] = src->albedo_gt && smp->albedo;
     if (batch->has_albedo[slot]) {
@@ -813,6 +824,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     int skipped, first_skipped;
     if ((s = pair_source_init(&src, &ds, o->stage, o->prior_normals_gt, &skipped, &first_skipped)) != HD_OK) goto done;
     src.albedo_gt = o->weights.w[HD_LOSS_ALBEDO_GT] > 0.0f;
+    src.light_gt = o->light_target_gt;
     if (skipped && o->warn) {
         char msg[600];
         snprintf(msg, sizeof msg, "stage 1 needs coarse normals: %d image(s) without NAME.normal.png left out (first: %s)",

@@ -89,6 +89,7 @@ typedef struct hd_train_options {
     float lr;              /* <= 0: 1e-3 in stage 1, 1e-4 in stage 2 */
     hd_loss_weights weights;
     int prior_normals_gt;  /* N_bar from NAME.normal_gt.png instead of NAME.normal.png (the paper's "-ft") */
+    int light_target_gt;   /* l_hat = NAME.light.txt where there is one, instead of the least-squares fit */
     long every;            /* checkpoint, plot and samples every K iterations */
     uint64_t seed;
     const char *init_model; /* may be NULL */
