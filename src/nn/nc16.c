@@ -10,6 +10,26 @@
 
 #define L HD_NC16_BLOCK
 
+#ifdef __AVX2__
+/* Transposes the 8 x 8 block r[k] (row k = channel k, 8 pixels) in place: r[j] = pixel j's 8
+ * channels. Moves only. */
+static inline void transpose8(__m256 r[8])
+{
+    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+    __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+    __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+    __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+    r[0] = _mm256_permute2f128_ps(u0, u4, 0x20), r[1] = _mm256_permute2f128_ps(u1, u5, 0x20);
+    r[2] = _mm256_permute2f128_ps(u2, u6, 0x20), r[3] = _mm256_permute2f128_ps(u3, u7, 0x20);
+    r[4] = _mm256_permute2f128_ps(u0, u4, 0x31), r[5] = _mm256_permute2f128_ps(u1, u5, 0x31);
+    r[6] = _mm256_permute2f128_ps(u2, u6, 0x31), r[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
+}
+#endif
+
 void hd_nc16_from_plain(float *nc16, const float *plain, int B, int C, int HW)
 {
     /* nc16(n, c / 16, p, c % 16) = plain(n, c, p), 0 for c >= C */
@@ -18,7 +38,18 @@ void hd_nc16_from_plain(float *nc16, const float *plain, int B, int C, int HW)
     for (long nb = 0; nb < (long)B * CB; nb++) {
         int n = (int)(nb / CB), cb = (int)(nb % CB);
         float *dst = nc16 + (size_t)nb * HW * L;
-        for (int p = 0; p < HW; p++)
+        int p = 0;
+#ifdef __AVX2__
+        if ((cb + 1) * L <= C) /* a whole block: 8 x 8 transposes of channels x pixels */
+            for (const float *src = plain + ((size_t)n * C + (size_t)cb * L) * HW; p + 8 <= HW; p += 8)
+                for (int h = 0; h < L; h += 8) {
+                    __m256 r[8];
+                    for (int k = 0; k < 8; k++) r[k] = _mm256_loadu_ps(src + (size_t)(h + k) * HW + p);
+                    transpose8(r);
+                    for (int j = 0; j < 8; j++) _mm256_storeu_ps(dst + (size_t)(p + j) * L + h, r[j]);
+                }
+#endif
+        for (; p < HW; p++)
             for (int l = 0; l < L; l++) {
                 int c = cb * L + l;
                 dst[(size_t)p * L + l] = c < C ? plain[((size_t)n * C + c) * HW + p] : 0.0f;
