@@ -3,6 +3,7 @@
  * gradient in every layer of every net, the SH shading gradient, a tiny pair overfitting, exact
  * resume, NaN detection, and clear errors for bad or mismatched checkpoint files. */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
@@ -213,6 +214,123 @@ static void test_gradients(void)
     t.weights = all;
     check_gradients(&t, "discriminator", 1, 0, 3e-4f);
     hd_trainer_free(&t);
+}
+
+/* ---- the fast path (oneDNN, Common-Nets in the blocked layout at a width that is a multiple of
+ * 16, N-Net's 1-channel input read through zero-padded enc0 weights) against the naive one:
+ * every output, every parameter gradient of HD-Net and of the discriminator, and the
+ * discriminator's input gradient. A profiled pass computes exactly the same. */
+
+static double max_rel_diff(const float *a, const float *b, size_t n)
+{
+    double m = 1e-12, d = 0;
+    for (size_t i = 0; i < n; i++) m = fmax(m, fabs(b[i]));
+    for (size_t i = 0; i < n; i++) d = fmax(d, fabs(a[i] - b[i]));
+    return d / m;
+}
+
+static void test_paths(void)
+{
+    enum { B = 2, S = 32 };
+    hd_net_config cfg = {16, S};
+    hd_net fast, ref;
+    if (hd_net_create(&fast, &cfg, B, HD_NET_TRAIN, HD_CONV_AUTO) != HD_OK ||
+        hd_net_create(&ref, &cfg, B, HD_NET_TRAIN, HD_CONV_NAIVE) != HD_OK) {
+        fprintf(stderr, "net: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    hd_train_init_params(&cfg, 5, fast.params, fast.disc_params);
+    /* biases of +-(0.5 .. 1.5) keep pre-activations away from the leaky ReLU kink, where the two
+     * paths' rounding could pick different slopes */
+    hd_rng rng;
+    hd_rng_seed(&rng, 77, 1);
+    for (int i = 0; i < fast.table.count; i++) {
+        const hd_param *p = &fast.table.p[i];
+        if (!strstr(p->name, ".bias")) continue;
+        for (size_t k = 0; k < p->count; k++)
+            fast.params[p->offset + k] = (hd_rng_below(&rng, 2) ? 1.0f : -1.0f) * hd_rng_range(&rng, 0.5f, 1.5f);
+    }
+    memcpy(ref.params, fast.params, fast.table.total * sizeof(float));
+    memcpy(ref.disc_params, fast.disc_params, fast.disc_table.total * sizeof(float));
+    size_t HW = (size_t)S * S;
+    for (size_t i = 0; i < B * 3 * HW; i++) fast.input[i] = ref.input[i] = hd_rng_range(&rng, 0.0f, 1.0f);
+
+    hd_net *nets[2] = {&fast, &ref};
+    for (int k = 0; k < 2; k++) {
+        hd_net *n = nets[k];
+        hd_net_forward(n);
+        hd_net_zero_grad(n);
+        hd_rng g;
+        hd_rng_seed(&g, 78, 1); /* the same output gradients for both */
+        for (size_t i = 0; i < B * 3 * HW; i++) n->d_albedo[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        for (size_t i = 0; i < B * HW; i++) n->d_shading[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        for (size_t i = 0; i < B * 3 * HW; i++) n->d_normal[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        for (size_t i = 0; i < B * HD_SH_COEFFS; i++) n->d_light[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        hd_net_backward(n, HD_TRAIN_ALL);
+        /* the discriminator on the albedo */
+        memcpy(n->d_in, n->albedo, B * 3 * HW * sizeof(float));
+        hd_disc_forward(n);
+        size_t np = (size_t)B * hd_disc_patches(n);
+        for (size_t i = 0; i < np; i++) n->g_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        memset(n->g_in, 0, B * 3 * HW * sizeof(float));
+        memset(n->disc_grads, 0, n->disc_table.total * sizeof(float));
+        hd_disc_backward(n, 1, 1);
+    }
+    struct { const char *name; const float *a, *b; size_t n; } cmp[] = {
+        {"albedo", fast.albedo, ref.albedo, B * 3 * HW},
+        {"shading", fast.shading, ref.shading, B * HW},
+        {"normal", fast.normal, ref.normal, B * 3 * HW},
+        {"light", fast.light, ref.light, B * HD_SH_COEFFS},
+        {"HD-Net gradients", fast.grads, ref.grads, fast.table.total},
+        {"discriminator logits", fast.dlogit, ref.dlogit, (size_t)B * hd_disc_patches(&fast)},
+        {"discriminator gradients", fast.disc_grads, ref.disc_grads, fast.disc_table.total},
+        {"discriminator input gradient", fast.g_in, ref.g_in, B * 3 * HW},
+    };
+    for (size_t k = 0; k < sizeof cmp / sizeof cmp[0]; k++) {
+        double d = max_rel_diff(cmp[k].a, cmp[k].b, cmp[k].n);
+        double tol = k < 5 ? 1e-4 : 1e-3; /* instance normalisation amplifies the rounding */
+        printf("HD-Net fast vs naive path, w16 %dx%d batch %d: %-28s max relative difference %.2e%s\n", S, S, B,
+               cmp[k].name, d, d <= tol ? "" : "  FAIL");
+        if (!(d <= tol)) test_failures++;
+    }
+    /* and tensor by tensor, each against its own largest value (a small tensor's error would
+     * hide under the largest gradient of the net), naming the worst. The encoders' weight
+     * gradients sum many terms that cancel: float rounding reaches 1e-4 of their largest value
+     * there (the naive path sums in double), a wrong gradient differs by its own size. */
+    double worst = 0;
+    int worst_i = 0;
+    for (int i = 0; i < fast.table.count; i++) {
+        const hd_param *p = &fast.table.p[i];
+        double d = max_rel_diff(fast.grads + p->offset, ref.grads + p->offset, p->count);
+        if (d > worst) worst = d, worst_i = i;
+    }
+    printf("HD-Net fast vs naive path, w16 %dx%d batch %d: worst gradient tensor %-15s max relative difference %.2e%s\n",
+           S, S, B, fast.table.p[worst_i].name, worst, worst <= 1e-3 ? "" : "  FAIL");
+    if (!(worst <= 1e-3)) test_failures++;
+
+    /* profiling: the same results bit for bit, and stage times that add up to at most the pass */
+    size_t nout = B * 3 * HW;
+    float *keep = malloc(nout * sizeof(float));
+    memcpy(keep, fast.normal, nout * sizeof(float));
+    hd_net_profile prof;
+    memset(&prof, 0, sizeof prof);
+    fast.profile = &prof;
+    double t0 = hd_seconds();
+    hd_net_forward(&fast);
+    double dt = hd_seconds() - t0;
+    fast.profile = NULL;
+    CHECK(memcmp(keep, fast.normal, nout * sizeof(float)) == 0);
+    double sum = 0;
+    for (int k = 0; k < HD_NET_STAGES; k++) {
+        CHECK(prof.fwd[k] >= 0.0 && prof.bwd[k] == 0.0);
+        sum += prof.fwd[k];
+    }
+    CHECK(sum > 0.0 && sum <= dt + 1e-6);
+    CHECK(prof.fwd[HD_STAGE_N_NET] > 0.0 && prof.fwd[HD_STAGE_DISC] == 0.0);
+    free(keep);
+    hd_net_free(&fast);
+    hd_net_free(&ref);
 }
 
 /* ---- micro-batches: the same losses and gradients as the whole batch at once */
@@ -651,6 +769,7 @@ int main(void)
     test_shade_grad();
     double t0 = hd_seconds();
     test_micro_batch();
+    test_paths();
     test_albedo_supervised();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);

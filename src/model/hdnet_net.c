@@ -14,6 +14,21 @@
 
 static const int disc_channels[5] = {3, 64, 128, 256, 512};
 
+const char *const hd_net_stage_names[HD_NET_STAGES] = {"conv_in", "a_net", "s_net", "n_net", "l_net", "heads", "disc"};
+
+/* Profiling (net->profile set): the clock at the start of a stage, then lap() adds the time since
+ * *t to stage k of the forward (fwd) or backward table and restarts *t. Without a profile both
+ * do nothing. */
+static double clock_start(const hd_net *net) { return net->profile ? hd_seconds() : 0.0; }
+
+static void lap(const hd_net *net, int bwd, hd_net_stage k, double *t)
+{
+    if (!net->profile) return;
+    double now = hd_seconds();
+    (bwd ? net->profile->bwd : net->profile->fwd)[k] += now - *t;
+    *t = now;
+}
+
 /* ---------------------------------------------------------------- parameter tables */
 
 static void table_add(hd_param_table *t, const char *name, int ndim, int64_t d0, int64_t d1, int64_t d2, int64_t d3)
@@ -292,18 +307,26 @@ static float *param_of(const hd_param_table *t, float *base, const char *name)
 void hd_net_forward(hd_net *net)
 {
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
+    double t = clock_start(net);
     /* f = conv_in(I) */
     hd_conv3x3_forward(net->conv_in, net->feat, net->input, P("conv_in.weight"), P("conv_in.bias"));
+    lap(net, 0, HD_STAGE_CONV_IN, &t);
     /* A = sigmoid(a_net(f)) */
     hd_unet_forward(net->a_net, net->feat, net->a_logit);
+    lap(net, 0, HD_STAGE_A_NET, &t);
     hd_sigmoid_forward(net->albedo, net->a_logit, B * 3 * HW);
+    lap(net, 0, HD_STAGE_HEADS, &t);
     /* S = softplus(s_net(f)) */
     hd_unet_forward(net->s_net, net->feat, net->s_logit);
+    lap(net, 0, HD_STAGE_S_NET, &t);
     hd_softplus_forward(net->shading, net->s_logit, B * HW);
+    lap(net, 0, HD_STAGE_HEADS, &t);
     /* N = normalize(tanh(n_net(S))), S detached */
     hd_unet_forward(net->n_net, net->n_input_hold ? net->n_input_hold : net->shading, net->n_logit);
+    lap(net, 0, HD_STAGE_N_NET, &t);
     hd_tanh_forward(net->n_tanh, net->n_logit, B * 3 * HW);
     hd_l2norm3_forward(net->normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
+    lap(net, 0, HD_STAGE_HEADS, &t);
     /* l = fc(mean(lrelu(conv2(lrelu(conv1(bottleneck)))))) */
     const float *bott = hd_unet_bottleneck(net->n_net);
     hd_conv3x3_forward(net->l_conv1, net->l_h1, bott, P("l_net.conv1.weight"), P("l_net.conv1.bias"));
@@ -311,6 +334,7 @@ void hd_net_forward(hd_net *net)
     hd_meanpool_forward(net->l_pool, net->l_h2, net->B, HD_LNET_HIDDEN, net->H2 * net->W2);
     hd_linear_forward(net->light, net->l_pool, P("l_net.fc.weight"), P("l_net.fc.bias"), net->B, HD_LNET_HIDDEN,
                       HD_SH_COEFFS);
+    lap(net, 0, HD_STAGE_L_NET, &t);
 }
 
 void hd_net_zero_grad(hd_net *net)
@@ -334,6 +358,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     size_t n1 = B * HD_LNET_HIDDEN * (size_t)net->H1 * net->W1, n2 = B * HD_LNET_HIDDEN * (size_t)net->H2 * net->W2;
     size_t nb = B * (size_t)net->cfg.width * net->Hb * net->Wb;
     int all = set == HD_TRAIN_ALL;
+    double t = clock_start(net);
 
     /* L-Net. forward: l = fc(pool); pool = mean(h2); h2 = lrelu(conv2(h1)); h1 = lrelu(conv1(bottleneck)) */
     memset(net->d_l_pool, 0, B * HD_LNET_HIDDEN * sizeof(float));
@@ -347,6 +372,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
                         net->l_h2, net->l_h1, P("l_net.conv2.weight"));
     hd_conv3x3_backward(net->l_conv1, all ? net->d_bottleneck : NULL, G("l_net.conv1.weight"), G("l_net.conv1.bias"),
                         net->d_l_h1, net->l_h1, hd_unet_bottleneck(net->n_net), P("l_net.conv1.weight"));
+    lap(net, 1, HD_STAGE_L_NET, &t);
     if (!all) return;
 
     /* N-Net. forward: N = t / max(|t|, eps), t = tanh(n_logit); its input S is detached (dinp NULL) */
@@ -354,7 +380,9 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_n_logit, 0, B * 3 * HW * sizeof(float));
     hd_l2norm3_backward(net->d_n_tanh, net->d_normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
     hd_tanh_backward(net->d_n_logit, net->d_n_tanh, net->n_tanh, B * 3 * HW);
+    lap(net, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->n_net, net->d_n_logit, net->d_bottleneck, NULL);
+    lap(net, 1, HD_STAGE_N_NET, &t);
 
     /* ASD-Net. forward: A = sigmoid(a_logit), S = softplus(s_logit), both from f = conv_in(I) */
     memset(net->d_a_logit, 0, B * 3 * HW * sizeof(float));
@@ -362,10 +390,14 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_feat, 0, B * HD_FEAT * HW * sizeof(float));
     hd_sigmoid_backward(net->d_a_logit, net->d_albedo, net->albedo, B * 3 * HW);
     hd_softplus_backward(net->d_s_logit, net->d_shading, net->s_logit, B * HW);
+    lap(net, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->a_net, net->d_a_logit, NULL, net->d_feat);
+    lap(net, 1, HD_STAGE_A_NET, &t);
     hd_unet_backward(net->s_net, net->d_s_logit, NULL, net->d_feat);
+    lap(net, 1, HD_STAGE_S_NET, &t);
     hd_conv3x3_backward(net->conv_in, NULL, G("conv_in.weight"), G("conv_in.bias"), net->d_feat, net->feat,
                         net->input, P("conv_in.weight"));
+    lap(net, 1, HD_STAGE_CONV_IN, &t);
 }
 
 /* ---------------------------------------------------------------- discriminator */
@@ -377,6 +409,7 @@ void hd_disc_forward(hd_net *net)
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {net->d_c2, net->d_c3, net->d_c4};
+    double t = clock_start(net);
     /* c1: lrelu_0.2(conv(x)) */
     hd_conv3x3_forward(net->d_c1, net->dc1, net->d_in, DP("disc.c1.weight"), DP("disc.c1.bias"));
     const float *prev = net->dc1;
@@ -389,6 +422,7 @@ void hd_disc_forward(hd_net *net)
         prev = net->dact[k];
     }
     hd_conv3x3_forward(net->d_out, net->dlogit, prev, DP("disc.out.weight"), DP("disc.out.bias"));
+    lap(net, 0, HD_STAGE_DISC, &t);
 }
 
 void hd_disc_backward(hd_net *net, int want_input, int want_params)
@@ -397,6 +431,7 @@ void hd_disc_backward(hd_net *net, int want_input, int want_params)
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {net->d_c2, net->d_c3, net->d_c4};
     size_t B = (size_t)net->B;
+    double t = clock_start(net);
     memset(net->g_c1, 0, B * 64 * (size_t)net->Hd[0] * net->Wd[0] * sizeof(float));
     for (int k = 0; k < 3; k++) {
         size_t n = B * (size_t)disc_channels[k + 2] * net->Hd[k + 1] * net->Wd[k + 1] * sizeof(float);
@@ -419,4 +454,5 @@ void hd_disc_backward(hd_net *net, int want_input, int want_params)
     /* forward: c1 = lrelu_0.2(conv(x)) */
     hd_conv3x3_backward(net->d_c1, want_input ? net->g_in : NULL, DG("disc.c1.weight"), DG("disc.c1.bias"),
                         net->g_c1, net->dc1, net->d_in, DP("disc.c1.weight"));
+    lap(net, 1, HD_STAGE_DISC, &t);
 }

@@ -55,6 +55,27 @@ typedef enum hd_net_train_set {
     HD_TRAIN_LNET     /* only l_net (stage 2a: A-, S-, N-Net frozen) */
 } hd_net_train_set;
 
+/* Parts of the network a profile splits its time into (hd_net.profile). */
+typedef enum hd_net_stage {
+    HD_STAGE_CONV_IN = 0,
+    HD_STAGE_A_NET,
+    HD_STAGE_S_NET,
+    HD_STAGE_N_NET,
+    HD_STAGE_L_NET,
+    HD_STAGE_HEADS, /* sigmoid, softplus, tanh, normalisation and their gradients */
+    HD_STAGE_DISC,  /* the discriminator, every call */
+    HD_NET_STAGES
+} hd_net_stage;
+
+/* Stage names for tables ("conv_in", "a_net", "s_net", "n_net", "l_net", "heads", "disc"). */
+extern const char *const hd_net_stage_names[HD_NET_STAGES];
+
+/* Seconds (wall clock) spent per stage, forward and backward, accumulated over every pass while
+ * hd_net.profile points at it. */
+typedef struct hd_net_profile {
+    double fwd[HD_NET_STAGES], bwd[HD_NET_STAGES];
+} hd_net_profile;
+
 typedef struct hd_net {
     hd_net_config cfg;
     hd_net_mode mode;
@@ -73,6 +94,7 @@ typedef struct hd_net {
     /* Gradient checks only: when not NULL, N-Net reads this (B, 1, HW) instead of S, so that a
      * finite difference sees S detached from N-Net as the analytic gradient does. */
     const float *n_input_hold;
+    hd_net_profile *profile; /* benchmarks only: when not NULL, passes add their stage times here */
     float *act_mem; /* one block holding every activation below */
     size_t act_floats;
     /* activations */
