@@ -6,9 +6,9 @@
  *
  * Algorithm: in the blocked layout (nc16 plans), stride 1, channels in whole blocks of 16 and at
  * least WINO_MIN pixels a side, the three primitives use oneDNN's Winograd F(4x4, 3x3) kernels
- * (jit_wino_4x3): on this machine's AVX-512 they run the Common-Net's layers 1.7-2.4x faster than
- * the direct ones, one thread or two, and the naive loops hold them to the same 1e-5 relative
- * difference as the direct ones (tests/test_conv.c). The Winograd forward takes no leaky ReLU
+ * (jit_wino_4x3): on this machine's AVX-512 they run the Common-Net's layers 1.5-2x faster than
+ * the direct ones forward and 1.2-2.3x backward (one thread, docs/performance.md), and the naive
+ * loops hold them to the same 1e-5 relative difference as the direct ones (tests/test_conv.c). The Winograd forward takes no leaky ReLU
  * post-op, so that plan applies the activation in a pass of its own. Smaller layers, other
  * shapes, a CPU without the kernels, or HD_CONV_DIRECT=1 in the environment (for comparisons)
  * take the direct kernels. The choice depends on the shape only: runs stay bit-reproducible.
