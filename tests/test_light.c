@@ -6,6 +6,7 @@
 #include <string.h>
 #include "test.h"
 #include "core/core.h"
+#include "light/light.h"
 
 static const float dpr_light_00[9] = {
     1.084125496282453138f, -0.4642676300617166185f, 0.02837846795150648915f, 0.6765292733937575687f,
@@ -426,12 +427,37 @@ static void test_sphere(void)
     CHECK(hd_light_sphere(dpr_light_00, HD_IMAGE_MAX_SIDE + 1, &img) == HD_ERR_RANGE);
 }
 
+/* Mirroring: s(mirror(n), mirror(l)) = s(n, l) for random lights and normals, and mirroring
+ * twice is the identity; a light from the right becomes the light from the left. */
+static void test_mirror(void)
+{
+    hd_rng r;
+    hd_rng_seed(&r, 5, 0);
+    for (int t = 0; t < 200; t++) {
+        float l[HD_SH_COEFFS], m[HD_SH_COEFFS], n[3] = {hd_rng_range(&r, -1, 1), hd_rng_range(&r, -1, 1), hd_rng_range(&r, 0, 1)};
+        for (int k = 0; k < HD_SH_COEFFS; k++) l[k] = m[k] = hd_rng_range(&r, -1, 1);
+        float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int c = 0; c < 3; c++) n[c] /= len;
+        float nm[3] = {-n[0], n[1], n[2]};
+        hd_light_mirror(m);
+        CHECK_NEAR(hd_sh_shade(m, nm), hd_sh_shade(l, n), 1e-5);
+        hd_light_mirror(m);
+        for (int k = 0; k < HD_SH_COEFFS; k++) CHECK(m[k] == l[k]);
+    }
+    float right[HD_SH_COEFFS], left[HD_SH_COEFFS];
+    hd_light_from_direction(60.0f, 10.0f, 1.0f, 0.3f, right);
+    hd_light_from_direction(-60.0f, 10.0f, 1.0f, 0.3f, left);
+    hd_light_mirror(right);
+    for (int k = 0; k < HD_SH_COEFFS; k++) CHECK_NEAR(right[k], left[k], 1e-6);
+}
+
 int main(void)
 {
     test_vectors();
     test_constant_and_linear();
     test_fit();
     test_direction();
+    test_mirror();
     test_light_files();
     test_presets();
 #ifndef HD_TEST_LIGHT_NO_IMAGES

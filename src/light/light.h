@@ -15,4 +15,14 @@
 /* The band (0, 1 or 2) of coefficient k. */
 static inline int hd_sh_band(int k) { return k == 0 ? 0 : k < 4 ? 1 : 2; }
 
+/* The light of the mirror image (x -> -x, as a horizontally flipped face texture sees it): the
+ * coefficients odd in x (1-based 4, 5 and 8: x, y x and x z in SPEC section 2) change sign, so
+ * that s(mirror(n), mirror(l)) = s(n, l). */
+static inline void hd_light_mirror(float light[HD_SH_COEFFS])
+{
+    light[3] = -light[3];
+    light[4] = -light[4];
+    light[7] = -light[7];
+}
+
 #endif /* HD_LIGHT_H */

@@ -10,6 +10,7 @@
 #include "model/train.h"
 #include "model/checkpoint.h"
 #include "io/dataset.h"
+#include "light/light.h"
 
 #define HD_DATA_STREAM 0x5eedda7aULL
 #define HD_INIT_STREAM 1
@@ -468,7 +469,7 @@ static hd_status load_sample(const pair_source *src, int i, int flip, hd_pair_ba
     if (batch->has_light[slot]) {
         if ((s = hd_light_read(smp->light, lgt)) != HD_OK) goto done;
         /* a mirrored face sees the mirrored light: the coefficients odd in x change sign */
-        if (flip) lgt[3] = -lgt[3], lgt[4] = -lgt[4], lgt[7] = -lgt[7];
+        if (flip) hd_light_mirror(lgt);
     } else {
         memset(lgt, 0, HD_SH_COEFFS * sizeof(float));
     }
