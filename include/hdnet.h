@@ -96,8 +96,9 @@ hd_status hd_image_convert(const hd_image *src, int channels, hd_image *dst);
 hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
 /* How hard the PNG writer compresses. COMPACT (what hd_image_write_png does): zlib level 3 with
  * libpng's adaptive per-row filter choice. FAST: the UP filter on every row and zlib's run-length
- * strategy, about 4x faster; files a few percent larger on smooth maps, more on photographs. For
- * bulk output such as `hdnet synth` (docs/performance.md, "Synthetic data"). */
+ * strategy, 2.5-4x faster; files 3 % larger on a synthetic face's maps, 10 % on a picture sheet,
+ * 3 % smaller on a photograph. For bulk output such as `hdnet synth` (docs/performance.md,
+ * "Synthetic data"). */
 typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1 } hd_png_effort;
 hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
