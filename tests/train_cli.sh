@@ -76,6 +76,18 @@ wait $pid
 done_iters=$(($(wc -l < sig/loss.csv) - 1))
 expect 0 $H train data -o sig $T --iters $((done_iters + 1)) --every 100000 --resume
 
+# the options for sets with ground truth: an eighth loss column that is nonzero only when asked for,
+# and a different light loss when l_hat is the true light
+expect 0 $H train data -o gtrun $T --iters 2 --every 2 --w-albedo-gt 1 --prior-normals gt --light-target gt
+head -1 gtrun/loss.csv | grep -q ",albedo_gt," || fail "no albedo_gt column: $(head -1 gtrun/loss.csv)"
+agt() { sed -n 2p "$1" | cut -d, -f10; }
+[ "$(agt run/loss.csv)" = 0 ] || fail "albedo_gt should be 0 by default, is $(agt run/loss.csv)"
+awk "BEGIN { exit !($(agt gtrun/loss.csv) > 0.01) }" || fail "albedo_gt should be on: $(agt gtrun/loss.csv)"
+[ "$(sed -n 2p gtrun/loss.csv | cut -d, -f7)" != "$(sed -n 2p run/loss.csv | cut -d, -f7)" ] ||
+    fail "--light-target gt did not change the light loss"
+expect 2 $H train data -o y --prior-normals nope
+expect 2 $H train data -o y --light-target nope
+
 # bad uses
 expect 1 $H train no-such-folder -o x $T --iters 1
 grep -q "no-such-folder" err.log || fail "missing folder not named: $(cat err.log)"
