@@ -6,6 +6,10 @@
 
 HD_COMMAND("synth", cmd_synth, "generate paired synthetic faces with ground truth (albedo, normals, shading, light)")
 
+/* The help text below quotes these. */
+_Static_assert((int)HD_SYNTH_COARSE_ERROR_DEFAULT == 20 && (int)HD_SYNTH_COARSE_ERROR_MAX == 40,
+               "update the --coarse-error help text");
+
 static void on_progress(void *ctx, long done, long total)
 {
     hd_progress *p = ctx;
@@ -24,7 +28,7 @@ int cmd_synth(int argc, char **argv)
         {"seed", 0, HD_OPT_INT, &seed, "X", "random seed; the same seed gives the same set (default 1)"},
         {"pose-jitter", 0, HD_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
         {"coarse-error", 0, HD_OPT_FLOAT, &coarse_error, "DEG",
-         "size of the coarse normals' fit error: smooth tilt RMS DEG, pose error DEG/2 (default 20: about 23 degrees off; 0: exact pose)"},
+         "size of the coarse normals' fit error, 0..40 (default 20: about 23 degrees off; 0: exact pose)"},
         {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
@@ -32,12 +36,14 @@ int cmd_synth(int argc, char **argv)
         "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--threads N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
-        "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh with\n"
-        "a random pose and shape error, see --coarse-error), and the\n"
-        "ground truth YYYY.albedo.png, YYYY.normal_gt.png, YYYY.shading.png (16 bit, shading/2),\n"
+        "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh\n"
+        "with a random pose and shape error, see --coarse-error), and the ground truth\n"
+        "YYYY.albedo.png, YYYY.normal_gt.png, YYYY.shading.png (16 bit, shading/2),\n"
         "YYYY.shading.pfm (exact) and YYYY.light.txt; plus OUT/preview.sheet.png, a sheet of the first\n"
         "subjects (albedo, normals, shading, images). A subject keeps its shape and albedo across\n"
-        "its images; light (and pose) change per image.",
+        "its images; light (and pose) change per image. The coarse normals' error is zero-mean over\n"
+        "images: --coarse-error DEG tilts them by DEG RMS with a smooth field, turns the fit's pose\n"
+        "by DEG/2 (standard deviation per angle) and deforms its shape (docs/synthetic-data.md).",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
