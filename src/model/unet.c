@@ -12,10 +12,12 @@
  * concatenations are then copies of whole channel blocks (the net's input, padded to 16 channels,
  * goes last, where the padding of dec1a's input belongs). Only the net's input, output and
  * bottleneck are converted from and to plain NCHW. Otherwise everything is plain NCHW.
- * In nc16, enc0 reads the input's padded block as cp real channels, through weights padded with
- * zeros (enc0_w): oneDNN's blocked kernels refuse 1..3 input channels (its "first layer" case
- * wants a plain input) and fall back to a reference kernel about 100x slower (N-Net's 1-channel
- * input took 0.75 s of a 0.23 s net at 256x256).
+ * In nc16, a layer whose input has padded lanes (enc0 and dec1a when cin is not a multiple of
+ * 16) reads them as real channels through weights padded with zeros (wpad): oneDNN's blocked
+ * kernels refuse 1..3 input channels (its "first layer" case wants a plain input) and fall back to
+ * a reference kernel about 100x slower (N-Net's 1-channel input took 0.75 s of a 0.23 s net at
+ * 256x256), and take the direct kernel instead of Winograd for partial blocks (N-Net's dec1a,
+ * 97 channels: 0.35 s against 0.22 s at 112, forward and backward, batch 2).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -57,8 +59,10 @@ struct hd_unet {
     int nc16;       /* tensors in the blocked layout */
     float *bneck;   /* the bottleneck in plain NCHW (B, w, H/32, W/32) */
     float *bneck_g; /* nc16: dbottleneck converted */
-    float *enc0_w, *enc0_dw; /* nc16 with cin not a multiple of 16: enc0's weights and their
-                              * gradient padded to (w, cp, 3, 3), zero past cin; else NULL */
+    /* nc16, layers whose input has padded lanes: the weights padded to (co, cpad, 3, 3) with
+     * zeros past ci (copied at each forward) and the gradient's scratch; else NULL */
+    float *wpad[HD_UNET_LAYERS], *dwpad[HD_UNET_LAYERS];
+    int cpad[HD_UNET_LAYERS];
     hd_conv3x3 *conv[HD_UNET_LAYERS];
     const float *wt[HD_UNET_LAYERS], *bias[HD_UNET_LAYERS]; /* bound parameters */
     float *dwt[HD_UNET_LAYERS], *dbias[HD_UNET_LAYERS];     /* bound gradients, or NULL */
@@ -166,8 +170,9 @@ hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int
         layer_shape(l, cin, cout, width, &ci, &co, &lev);
         hd_act act = l == DEC1C ? HD_ACT_NONE : HD_ACT_LRELU;
         if (u->nc16) {
-            int cp = l == ENC0 ? hd_nc16_channels(ci) : ci; /* enc0: the whole padded block */
-            st = hd_conv3x3_plan_nc16(&u->conv[l], B, cp, H >> lev, W >> lev, co, 1, act, 0.1f);
+            /* the padded lanes as real channels: the input's block in enc0, its tail in dec1a */
+            u->cpad[l] = hd_nc16_channels(ci);
+            st = hd_conv3x3_plan_nc16(&u->conv[l], B, u->cpad[l], H >> lev, W >> lev, co, 1, act, 0.1f);
             if (st != HD_OK && l == 0) { /* oneDNN refused: the plain layout */
                 hd_clear_error();
                 u->nc16 = 0;
@@ -180,11 +185,14 @@ hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int
     /* dec1a: a backward-data primitive onto the upsampled part of cat[1] only, for the backwards
      * that want no input gradient (the input's channels are a quarter of dec1a's at cin 32) */
     if (st == HD_OK && u->nc16 && hd_conv3x3_plan_dinp_head(u->conv[DEC1A], 2 * width) != HD_OK) hd_clear_error();
-    if (st == HD_OK && u->nc16 && cin % HD_NC16_BLOCK) {
-        size_t n = (size_t)width * hd_nc16_channels(cin) * 9;
-        u->enc0_w = hd_calloc(n, sizeof(float));
-        u->enc0_dw = hd_calloc(n, sizeof(float));
-        if (!u->enc0_w || !u->enc0_dw) st = HD_ERR_NOMEM;
+    for (int l = 0; l < HD_UNET_LAYERS && st == HD_OK && u->nc16; l++) {
+        int ci, co, lev;
+        layer_shape(l, cin, cout, width, &ci, &co, &lev);
+        if (u->cpad[l] == ci) continue;
+        size_t n = (size_t)co * u->cpad[l] * 9;
+        u->wpad[l] = hd_calloc(n, sizeof(float));
+        u->dwpad[l] = hd_calloc(n, sizeof(float));
+        if (!u->wpad[l] || !u->dwpad[l]) st = HD_ERR_NOMEM;
     }
     size_t total = 0;
     hd_arena none = {0};
@@ -206,8 +214,10 @@ void hd_unet_free(hd_unet *u)
 {
     if (!u) return;
     for (int l = 0; l < HD_UNET_LAYERS; l++) hd_conv3x3_free(u->conv[l]);
-    free(u->enc0_w);
-    free(u->enc0_dw);
+    for (int l = 0; l < HD_UNET_LAYERS; l++) {
+        free(u->wpad[l]);
+        free(u->dwpad[l]);
+    }
     hd_arena_free(&u->arena);
     free(u);
 }
@@ -260,17 +270,43 @@ static void up_concat_backward(const hd_unet *u, const tensor *cat, tensor *src,
     }
 }
 
-static void conv_fwd(hd_unet *u, int l, tensor *out, const tensor *in)
+/* The weights layer l's plan reads. A padded layer: wpad(o, c, k) = w(o, c, k) for c < ci, copied
+ * here (forward), the lanes past ci staying 0 from creation; backward reads the forward's copy. */
+static const float *weights_of(hd_unet *u, int l, int refresh)
 {
-    hd_conv3x3_forward(u->conv[l], out->x, in->x, u->wt[l], u->bias[l]);
+    if (!u->wpad[l]) return u->wt[l];
+    int ci, co, lev, cp = u->cpad[l];
+    layer_shape(l, u->cin, u->cout, u->width, &ci, &co, &lev);
+    if (refresh)
+        for (int o = 0; o < co; o++)
+            memcpy(u->wpad[l] + (size_t)o * cp * 9, u->wt[l] + (size_t)o * ci * 9, (size_t)ci * 9 * sizeof(float));
+    return u->wpad[l];
 }
 
-/* enc0_w(o, c, k) = w(o, c, k) for c < cin; the lanes past cin stay 0 (set once at creation). */
-static void enc0_pad_weights(hd_unet *u)
+/* Where layer l's weight gradient goes: the bound gradient, or (padded layer) the zeroed scratch
+ * that dweights_fold then adds into it, dropping the padded lanes' gradient (those input lanes
+ * are 0; the input gradient there, 0 too, is never read). */
+static float *dweights_of(hd_unet *u, int l)
 {
-    int cin = u->cin, cp = u->inp.cp;
-    for (int o = 0; o < u->width; o++)
-        memcpy(u->enc0_w + (size_t)o * cp * 9, u->wt[ENC0] + (size_t)o * cin * 9, (size_t)cin * 9 * sizeof(float));
+    if (!u->wpad[l] || !u->dwt[l]) return u->dwt[l];
+    int ci, co, lev;
+    layer_shape(l, u->cin, u->cout, u->width, &ci, &co, &lev);
+    memset(u->dwpad[l], 0, (size_t)co * u->cpad[l] * 9 * sizeof(float));
+    return u->dwpad[l];
+}
+
+static void dweights_fold(hd_unet *u, int l)
+{
+    if (!u->wpad[l] || !u->dwt[l]) return;
+    int ci, co, lev, cp = u->cpad[l];
+    layer_shape(l, u->cin, u->cout, u->width, &ci, &co, &lev);
+    for (int o = 0; o < co; o++)
+        for (int k = 0; k < ci * 9; k++) u->dwt[l][(size_t)o * ci * 9 + k] += u->dwpad[l][(size_t)o * cp * 9 + k];
+}
+
+static void conv_fwd(hd_unet *u, int l, tensor *out, const tensor *in)
+{
+    hd_conv3x3_forward(u->conv[l], out->x, in->x, weights_of(u, l, 1), u->bias[l]);
 }
 
 static void zero_grad(tensor *t, int B) { memset(t->g, 0, (size_t)B * numel(t) * sizeof(float)); }
@@ -280,10 +316,13 @@ static void zero_grad(tensor *t, int B) { memset(t->g, 0, (size_t)B * numel(t) *
  * gradients. */
 static void conv_bwd(hd_unet *u, int l, tensor *out, tensor *in, int fresh)
 {
+    float *dw = dweights_of(u, l);
+    const float *w = weights_of(u, l, 0);
     if (fresh)
-        hd_conv3x3_backward_into(u->conv[l], in->g, u->dwt[l], u->dbias[l], out->g, out->x, in->x, u->wt[l]);
+        hd_conv3x3_backward_into(u->conv[l], in->g, dw, u->dbias[l], out->g, out->x, in->x, w);
     else
-        hd_conv3x3_backward(u->conv[l], in->g, u->dwt[l], u->dbias[l], out->g, out->x, in->x, u->wt[l]);
+        hd_conv3x3_backward(u->conv[l], in->g, dw, u->dbias[l], out->g, out->x, in->x, w);
+    dweights_fold(u, l);
 }
 
 static void maxpool_fwd(const hd_unet *u, tensor *out, const tensor *in)
@@ -309,12 +348,7 @@ void hd_unet_forward(hd_unet *u, const float *inp, float *out)
     int HW = u->H * u->W;
     if (u->nc16) hd_nc16_from_plain(u->inp.x, inp, B, u->cin, HW);
     else memcpy(u->inp.x, inp, (size_t)B * numel(&u->inp) * sizeof(float));
-    if (u->enc0_w) {
-        enc0_pad_weights(u);
-        hd_conv3x3_forward(u->conv[ENC0], u->e[0].x, u->inp.x, u->enc0_w, u->bias[ENC0]);
-    } else {
-        conv_fwd(u, ENC0, &u->e[0], &u->inp);
-    }
+    conv_fwd(u, ENC0, &u->e[0], &u->inp);
     conv_fwd(u, ENC1, &u->e[1], &u->e[0]);
     maxpool_fwd(u, &u->p[1], &u->e[1]);
     for (int l = 2; l <= 6; l++) {
@@ -350,11 +384,13 @@ void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, f
     if (dinp && u->nc16) zero_grad(&u->inp, B);
     conv_bwd(u, DEC1C, &u->out, &u->d1b, 1);
     conv_bwd(u, DEC1B, &u->d1b, &u->d1a, 1);
-    if (!dinp_net && u->nc16) /* the input's channels of cat[1] need no gradient */
-        hd_conv3x3_backward_head_into(u->conv[DEC1A], u->cat[1].g, u->dwt[DEC1A], u->dbias[DEC1A], u->d1a.g,
-                                      u->d1a.x, u->cat[1].x, u->wt[DEC1A]);
-    else
+    if (!dinp_net && u->nc16) { /* the input's channels of cat[1] need no gradient */
+        hd_conv3x3_backward_head_into(u->conv[DEC1A], u->cat[1].g, dweights_of(u, DEC1A), u->dbias[DEC1A], u->d1a.g,
+                                      u->d1a.x, u->cat[1].x, weights_of(u, DEC1A, 0));
+        dweights_fold(u, DEC1A);
+    } else {
         conv_bwd(u, DEC1A, &u->d1a, &u->cat[1], 1);
+    }
     zero_grad(&u->dbk[2], B);
     up_concat_backward(u, &u->cat[1], &u->dbk[2], dinp_net, numel(&u->inp), B);
     for (int l = 2; l <= 4; l++) {
@@ -387,19 +423,8 @@ void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, f
     }
     maxpool_bwd(u, &u->p[1], &u->e[1]);
     conv_bwd(u, ENC1, &u->e[1], &u->e[0], 1);
-    if (u->enc0_w) {
-        /* the padded weights: their gradient past cin is dropped (those lanes of the input are
-         * 0, and the input gradient there, 0 too, is never read) */
-        int cin = u->cin, cp = u->inp.cp;
-        if (u->dwt[ENC0]) memset(u->enc0_dw, 0, (size_t)u->width * cp * 9 * sizeof(float));
-        hd_conv3x3_backward(u->conv[ENC0], dinp_net, u->dwt[ENC0] ? u->enc0_dw : NULL, u->dbias[ENC0], u->e[0].g,
-                            u->e[0].x, u->inp.x, u->enc0_w);
-        if (u->dwt[ENC0])
-            for (int o = 0; o < u->width; o++)
-                for (int k = 0; k < cin * 9; k++) u->dwt[ENC0][(size_t)o * cin * 9 + k] += u->enc0_dw[(size_t)o * cp * 9 + k];
-    } else {
-        hd_conv3x3_backward(u->conv[ENC0], dinp_net, u->dwt[ENC0], u->dbias[ENC0], u->e[0].g, u->e[0].x,
-                            u->inp.x, u->wt[ENC0]);
-    }
+    hd_conv3x3_backward(u->conv[ENC0], dinp_net, dweights_of(u, ENC0), u->dbias[ENC0], u->e[0].g, u->e[0].x,
+                        u->inp.x, weights_of(u, ENC0, 0));
+    dweights_fold(u, ENC0);
     if (dinp && u->nc16) hd_nc16_to_plain(dinp, u->inp.g, B, u->cin, HW, 1);
 }
