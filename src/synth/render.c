@@ -119,6 +119,7 @@ void hd_synth_face_free(hd_synth_face *f)
 #define COARSE_POSE 0.5f
 #define COARSE_SHAPE 0.05f
 #define COARSE_WAVES 6
+
 /* splitmix64's finaliser: a bijective 64-bit hash. */
 static uint64_t mix64(uint64_t z)
 {
@@ -129,10 +130,10 @@ static uint64_t mix64(uint64_t z)
 }
 
 typedef struct coarse_fit {
-    float R[9];                   /* the fit's pose */
-    float gain;                   /* tan(E) / RMS |grad h|; 0 without error */
+    float R[9];                               /* the fit's pose */
+    float gain;                               /* tan(E) / RMS |grad h|; 0 without error */
     float kx[COARSE_WAVES], ky[COARSE_WAVES]; /* wave vectors, radians per texel */
-    float *cx, *sx, *cy, *sy;     /* (COARSE_WAVES, S): cos, sin of k_x x and of k_y y + phi */
+    float *cx, *sx, *cy, *sy;                 /* (COARSE_WAVES, S): cos, sin of k_x x and of k_y y + phi */
 } coarse_fit;
 
 /* Draws the fit of image `image` into fit (whose tables hold 4 * COARSE_WAVES * S floats) and f's
@@ -165,7 +166,7 @@ static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int 
     hd_mesh_vertex_normals(&s->mesh, pos, cn);
     pose_matrix(f->coarse_yaw_deg, f->coarse_pitch_deg, f->coarse_roll_deg, fit->R);
     for (int v = 0; v < V; v++) rotate(fit->R, cn + 3 * v, cn + 3 * v);
-    /* the tilt waves; E|grad h|^2 = sum_w |k_w|^2 / 2 over the phases */
+    /* the tilt waves; over the phases, the mean of |grad h|^2 is sum_w |k_w|^2 / 2 */
     double k2 = 0;
     for (int w = 0; w < COARSE_WAVES; w++) {
         double cycles = hd_rng_range(&r, 1.0f, 3.0f), theta = hd_rng_range(&r, 0.0f, 2.0f * (float)M_PI);
