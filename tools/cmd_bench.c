@@ -113,6 +113,8 @@ static hd_status time_conv(int B, int C, int OC, int side, hd_act act, hd_conv_p
 
 typedef struct net_times {
     double fwd, fwd_bwd; /* best seconds */
+    double layer[2 * HD_UNET_LAYERS]; /* per convolution inside the net, forward then backward (best) */
+    double rest_fwd, rest_bwd;        /* the rest of a profiled forward, backward (best) */
     size_t arena;
 } net_times;
 
@@ -144,6 +146,26 @@ static hd_status time_unet(const bench_args *a, net_times *t)
         if (t1 - t0 < t->fwd) t->fwd = t1 - t0;
         if (t2 - t1 < t->fwd_bwd) t->fwd_bwd = t2 - t1;
     }
+    /* per layer inside the net: profiled runs of their own (the timers' calls stay out of the
+     * figures above) */
+    double prof[2 * HD_UNET_LAYERS];
+    for (int k = 0; k < 2 * HD_UNET_LAYERS; k++) t->layer[k] = 1e30;
+    t->rest_fwd = t->rest_bwd = 1e30;
+    hd_unet_profile(net, prof);
+    for (int r = 0; r < a->repeats && st == HD_OK; r++) {
+        memset(prof, 0, sizeof prof);
+        double t0 = hd_seconds();
+        hd_unet_forward(net, x, out);
+        double t1 = hd_seconds();
+        hd_unet_backward(net, dout, NULL, NULL);
+        double t2 = hd_seconds(), rf = t1 - t0, rb = t2 - t1;
+        for (int k = 0; k < HD_UNET_LAYERS; k++) rf -= prof[k], rb -= prof[HD_UNET_LAYERS + k];
+        if (rf < t->rest_fwd) t->rest_fwd = rf;
+        if (rb < t->rest_bwd) t->rest_bwd = rb;
+        for (int k = 0; k < 2 * HD_UNET_LAYERS; k++)
+            if (prof[k] < t->layer[k]) t->layer[k] = prof[k];
+    }
+    hd_unet_profile(net, NULL);
     t->arena = st == HD_OK ? hd_unet_memory(net) : 0;
     free(params), free(grads), free(x), free(out), free(dout);
     hd_unet_free(net);
@@ -254,6 +276,25 @@ int cmd_bench(int argc, char **argv)
                 BENCH_CIN, BENCH_COUT, a.width, a.size, a.size, a.batch, gf, nt.fwd * 1e3, gf / nt.fwd,
                 peak > 0 ? 100 * gf / nt.fwd / peak : 0.0, nt.fwd_bwd * 1e3, 3 * gf / nt.fwd_bwd,
                 nt.fwd_bwd / nt.fwd, nt.arena / 1048576.0, ru.ru_maxrss / 1024.0);
+    /* the convolutions inside the net, where the 2-thread losses of a shared machine show */
+    double sf = 0.0, sb = 0.0;
+    for (int k = 0; k < nl; k++) sf += nt.layer[k], sb += nt.layer[HD_UNET_LAYERS + k];
+    if (J) {
+        fprintf(o, "\"commonnet_layers\": [\n");
+        for (int k = 0; k < nl; k++)
+            fprintf(o, "  {\"name\": \"%s\", \"fwd_s\": %.6f, \"bwd_s\": %.6f}%s\n", ls[k].name, nt.layer[k],
+                    nt.layer[HD_UNET_LAYERS + k], k == nl - 1 ? "" : ",");
+        fprintf(o, "],\n\"commonnet_rest_fwd_s\": %.6f,\n\"commonnet_rest_bwd_s\": %.6f,\n", nt.rest_fwd, nt.rest_bwd);
+    } else {
+        fprintf(o, "  inside the net, per convolution (best of %d; backward = activation gradient, input and weight\n"
+                   "  gradients), ms:\n", a.repeats);
+        for (int k = 0; k < nl; k++)
+            fprintf(o, "    %-6s fwd %8.3f  bwd %8.3f%s", ls[k].name, nt.layer[k] * 1e3, nt.layer[HD_UNET_LAYERS + k] * 1e3,
+                    k % 2 ? "\n" : "   ");
+        fprintf(o, "%s    convolutions fwd %.1f ms, bwd %.1f ms; the rest (pooling, upsampling, concatenation,\n"
+                   "    conversions) %.1f ms forward, %.1f ms backward\n", nl % 2 ? "\n" : "", sf * 1e3, sb * 1e3,
+                nt.rest_fwd * 1e3, nt.rest_bwd * 1e3);
+    }
     fflush(o);
     a.out = o;
     int rc = 0;

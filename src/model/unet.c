@@ -63,6 +63,7 @@ struct hd_unet {
      * zeros past ci (copied at each forward) and the gradient's scratch; else NULL */
     float *wpad[HD_UNET_LAYERS], *dwpad[HD_UNET_LAYERS];
     int cpad[HD_UNET_LAYERS];
+    double *prof;   /* hd_unet_profile's seconds, or NULL */
     hd_conv3x3 *conv[HD_UNET_LAYERS];
     const float *wt[HD_UNET_LAYERS], *bias[HD_UNET_LAYERS]; /* bound parameters */
     float *dwt[HD_UNET_LAYERS], *dbias[HD_UNET_LAYERS];     /* bound gradients, or NULL */
@@ -239,6 +240,8 @@ void hd_unet_bind(hd_unet *u, const float *params, float *grads)
 
 size_t hd_unet_memory(const hd_unet *u) { return u->arena.size; }
 
+void hd_unet_profile(hd_unet *u, double *seconds) { u->prof = seconds; }
+
 const float *hd_unet_bottleneck(const hd_unet *u) { return u->nc16 ? u->bneck : u->e[6].x; }
 
 static size_t numel(const tensor *t) { return (size_t)t->cp * t->h * t->w; } /* per image */
@@ -306,23 +309,37 @@ static void dweights_fold(hd_unet *u, int l)
 
 static void conv_fwd(hd_unet *u, int l, tensor *out, const tensor *in)
 {
+    double t0 = u->prof ? hd_seconds() : 0.0;
     hd_conv3x3_forward(u->conv[l], out->x, in->x, weights_of(u, l, 1), u->bias[l]);
+    if (u->prof) u->prof[l] += hd_seconds() - t0;
 }
 
 static void zero_grad(tensor *t, int B) { memset(t->g, 0, (size_t)B * numel(t) * sizeof(float)); }
 
+enum { BWD_ADD, BWD_FRESH, BWD_HEAD };
+
 /* Backward of conv l: out->g (the gradient at its output, turned in place into the gradient
- * before the activation) flows into in->g (overwritten when `fresh`, else added to) and the bound
- * gradients. */
-static void conv_bwd(hd_unet *u, int l, tensor *out, tensor *in, int fresh)
+ * before the activation) flows into in_g (added to, overwritten, or only its first channels
+ * overwritten: hd_conv3x3_backward_head_into; NULL: no input gradient) and the bound gradients. */
+static void conv_bwd_to(hd_unet *u, int l, tensor *out, const tensor *in, float *in_g, int mode)
 {
+    double t0 = u->prof ? hd_seconds() : 0.0;
     float *dw = dweights_of(u, l);
     const float *w = weights_of(u, l, 0);
-    if (fresh)
-        hd_conv3x3_backward_into(u->conv[l], in->g, dw, u->dbias[l], out->g, out->x, in->x, w);
+    if (mode == BWD_HEAD)
+        hd_conv3x3_backward_head_into(u->conv[l], in_g, dw, u->dbias[l], out->g, out->x, in->x, w);
+    else if (mode == BWD_FRESH)
+        hd_conv3x3_backward_into(u->conv[l], in_g, dw, u->dbias[l], out->g, out->x, in->x, w);
     else
-        hd_conv3x3_backward(u->conv[l], in->g, dw, u->dbias[l], out->g, out->x, in->x, w);
+        hd_conv3x3_backward(u->conv[l], in_g, dw, u->dbias[l], out->g, out->x, in->x, w);
     dweights_fold(u, l);
+    if (u->prof) u->prof[HD_UNET_LAYERS + l] += hd_seconds() - t0;
+}
+
+/* in->g overwritten when `fresh`, else added to */
+static void conv_bwd(hd_unet *u, int l, tensor *out, tensor *in, int fresh)
+{
+    conv_bwd_to(u, l, out, in, in->g, fresh ? BWD_FRESH : BWD_ADD);
 }
 
 static void maxpool_fwd(const hd_unet *u, tensor *out, const tensor *in)
@@ -384,13 +401,8 @@ void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, f
     if (dinp && u->nc16) zero_grad(&u->inp, B);
     conv_bwd(u, DEC1C, &u->out, &u->d1b, 1);
     conv_bwd(u, DEC1B, &u->d1b, &u->d1a, 1);
-    if (!dinp_net && u->nc16) { /* the input's channels of cat[1] need no gradient */
-        hd_conv3x3_backward_head_into(u->conv[DEC1A], u->cat[1].g, dweights_of(u, DEC1A), u->dbias[DEC1A], u->d1a.g,
-                                      u->d1a.x, u->cat[1].x, weights_of(u, DEC1A, 0));
-        dweights_fold(u, DEC1A);
-    } else {
-        conv_bwd(u, DEC1A, &u->d1a, &u->cat[1], 1);
-    }
+    /* without an input gradient, the input's channels of cat[1] need none either */
+    conv_bwd_to(u, DEC1A, &u->d1a, &u->cat[1], u->cat[1].g, !dinp_net && u->nc16 ? BWD_HEAD : BWD_FRESH);
     zero_grad(&u->dbk[2], B);
     up_concat_backward(u, &u->cat[1], &u->dbk[2], dinp_net, numel(&u->inp), B);
     for (int l = 2; l <= 4; l++) {
@@ -423,8 +435,6 @@ void hd_unet_backward(hd_unet *u, const float *dout, const float *dbottleneck, f
     }
     maxpool_bwd(u, &u->p[1], &u->e[1]);
     conv_bwd(u, ENC1, &u->e[1], &u->e[0], 1);
-    hd_conv3x3_backward(u->conv[ENC0], dinp_net, dweights_of(u, ENC0), u->dbias[ENC0], u->e[0].g, u->e[0].x,
-                        u->inp.x, weights_of(u, ENC0, 0));
-    dweights_fold(u, ENC0);
+    conv_bwd_to(u, ENC0, &u->e[0], &u->inp, dinp_net, BWD_ADD);
     if (dinp && u->nc16) hd_nc16_to_plain(dinp, u->inp.g, B, u->cin, HW, 1);
 }

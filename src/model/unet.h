@@ -45,6 +45,11 @@ const float *hd_unet_bottleneck(const hd_unet *net);
 void hd_unet_backward(hd_unet *net, const float *dout, const float *dbottleneck, float *dinp);
 /* Multiply-accumulates of one forward pass of one image (for GFLOP/s figures). */
 double hd_unet_macs(int cin, int cout, int width, int H, int W);
+/* Per-layer timing (hdnet bench): with seconds (2 * HD_UNET_LAYERS doubles) not NULL, every
+ * forward adds convolution l's wall time (with its activation) to seconds[l] and every backward
+ * its backward's (activation gradient, input and weight gradients) to seconds[HD_UNET_LAYERS + l];
+ * pooling, upsampling, concatenation and conversions are not counted. NULL stops. */
+void hd_unet_profile(hd_unet *net, double *seconds);
 /* Bytes of activation memory the net holds. */
 size_t hd_unet_memory(const hd_unet *net);
 
