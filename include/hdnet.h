@@ -97,9 +97,10 @@ hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
 /* How hard the PNG writer compresses. COMPACT (what hd_image_write_png does): zlib level 3 with
  * libpng's adaptive per-row filter choice. FAST: the UP filter on every row and zlib's run-length
  * strategy, 2.5-4x faster; files 3 % larger on a synthetic face's maps, 10 % on a picture sheet,
- * 3 % smaller on a photograph. For bulk output such as `hdnet synth` (docs/performance.md,
- * "Synthetic data"). */
-typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1 } hd_png_effort;
+ * 3 % smaller on a photograph. STORE: no filter, zlib's stored blocks (no compression), 6x faster
+ * than FAST, files 2.2x larger than FAST on a face's maps. For bulk output such as `hdnet synth`
+ * (docs/performance.md, "Synthetic data"). Every effort decodes to the same samples. */
+typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1, HD_PNG_STORE = 2 } hd_png_effort;
 hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
 hd_status hd_image_write_pfm(const char *path, const hd_image *img);
@@ -356,12 +357,16 @@ void hd_synth_face_free(hd_synth_face *face);
  * NAME.albedo.png, NAME.normal_gt.png, NAME.shading.png (16 bit, s/2), NAME.shading.pfm and
  * NAME.light.txt (each atomically). */
 hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_face *face);
+/* The same with the PNGs at a chosen effort (hd_synth_face_write: HD_PNG_FAST). */
+hd_status hd_synth_face_write_effort(const char *dir, const char *name, const hd_synth_face *face,
+                                     hd_png_effort effort);
 
 typedef struct hd_synth_options {
     int subjects, per_subject, size;
     uint64_t seed;
     float pose_jitter_deg;  /* maximum yaw, pitch and roll, degrees (0: frontal) */
     float coarse_error_deg; /* the coarse normals' fit error (hd_synth_render); 0: exact pose, no shape error */
+    int png_store;          /* 0: the PNGs at HD_PNG_FAST; 1: HD_PNG_STORE (uncompressed: faster, larger) */
 } hd_synth_options;
 /* Called now and then with the number of images written (may be NULL). */
 typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);

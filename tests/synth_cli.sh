@@ -1,9 +1,9 @@
 #!/bin/sh
 # synth_cli.sh: `hdnet synth` and `hdnet eval` from the command line: a tiny set has every SPEC
 # section 5 file and a preview; the same seed gives the same files; --coarse-error changes only the
-# coarse normals; the set's ground truth, laid out as `hdnet decompose` writes predictions, scores
-# zero errors and 100 % lighting classification with the baselines under it; a model is scored too;
-# bad options give the documented exit codes.
+# coarse normals, --png store only the PNGs' compression; the set's ground truth, laid out as
+# `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
+# the baselines under it; a model is scored too; bad options give the documented exit codes.
 set -u
 TEST=synth_cli
 . "$(dirname "$0")/cli_common.shlib"
@@ -24,6 +24,15 @@ expect_saying 0 "synth 6/6" "$HDNET" synth exact --subjects 3 --per-subject 2 --
 cmp -s set/subject_0001/0001.normal.png exact/subject_0001/0001.normal.png && fail "--coarse-error 0 gives the default's coarse normals"
 for f in 0001.png 0001.mask.png 0001.albedo.png 0001.normal_gt.png 0001.shading.pfm 0001.light.txt; do
     cmp -s "set/subject_0001/$f" "exact/subject_0001/$f" || fail "--coarse-error changed $f"
+done
+# --png store: the same set with uncompressed PNGs (larger files; test_synth checks that they decode
+# to the same samples), the PFM and the light byte for byte the same
+expect_saying 0 "synth 6/6" "$HDNET" synth stored --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --png store
+for f in 0001.shading.pfm 0001.light.txt; do
+    cmp -s "set/subject_0001/$f" "stored/subject_0001/$f" || fail "--png store changed $f"
+done
+for f in 0001.png 0001.normal.png 0001.normal_gt.png 0001.shading.png; do
+    [ "$(wc -c <"stored/subject_0001/$f")" -gt "$(wc -c <"set/subject_0001/$f")" ] || fail "--png store: $f is not larger"
 done
 
 # ground truth as a prediction, in hdnet decompose's layout
@@ -52,6 +61,7 @@ grep "^hdnet model" out.log | grep -q -- " - " && { cat out.log >&2; fail "the m
 expect_saying 2 "subjects" "$HDNET" synth x --per-subject 2
 expect_saying 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
 expect_saying 2 "coarse-error" "$HDNET" synth x --subjects 1 --per-subject 1 --coarse-error 50
+expect_saying 2 "neither fast nor store" "$HDNET" synth x --subjects 1 --per-subject 1 --png zip
 expect_saying 2 "exactly one" "$HDNET" eval set
 expect_saying 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
 expect_saying 1 "" "$HDNET" eval set --pred no_such_pred

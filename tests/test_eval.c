@@ -170,7 +170,7 @@ static void use_source_models(void)
 /* The ground truth of a small synthetic set, scored as a prediction. */
 static void test_run(void)
 {
-    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f};
+    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f, 0};
     if (hd_synth_write_set("set", &o, NULL, NULL) != HD_OK) {
         fprintf(stderr, "synth: %s\n", hd_error());
         test_failures++;

@@ -8,6 +8,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include "test.h"
 #include "core/core.h"
 
@@ -22,6 +23,12 @@ static void use_source_models(void)
     size_t len = strlen(dir);
     snprintf(dir + len, sizeof dir - len, "/../models");
     setenv("HDNET_DATA", dir, 1);
+}
+
+static long long file_size_of(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
 }
 
 static int same_image(const hd_image *a, const hd_image *b)
@@ -269,7 +276,7 @@ static int files_equal(const char *p, const char *q)
  * satisfy image = albedo x shading within quantisation. */
 static void test_write_set(void)
 {
-    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT};
+    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT, 0};
     hd_set_threads(1);
     CHECK(hd_synth_write_set("set1", &o, NULL, NULL) == HD_OK);
     hd_set_threads(2);
@@ -318,38 +325,74 @@ static void test_write_set(void)
     hd_image_free(&sh);
     hd_image_free(&shp);
     hd_image_free(&mask);
+    /* png_store: uncompressed PNGs that decode to the same samples, the other files byte-identical */
+    hd_synth_options st = o;
+    st.png_store = 1;
+    CHECK(hd_synth_write_set("set_store", &st, NULL, NULL) == HD_OK);
+    for (int sub = 0; sub < 3; sub++)
+        for (int im = 0; im < 3; im++)
+            for (int k = 0; k < 8; k++) {
+                char p[256], q[256];
+                snprintf(p, sizeof p, "set1/subject_%04d/%04d%s", sub, im, suffix[k]);
+                snprintf(q, sizeof q, "set_store/subject_%04d/%04d%s", sub, im, suffix[k]);
+                if (k >= 6) {
+                    CHECK(files_equal(p, q));
+                    continue;
+                }
+                hd_image a = {0}, b = {0};
+                CHECK(hd_image_read(p, &a) == HD_OK);
+                CHECK(hd_image_read(q, &b) == HD_OK);
+                CHECK(a.data && b.data && same_image(&a, &b));
+                CHECK(file_size_of(q) > file_size_of(p));
+                hd_image_free(&a);
+                hd_image_free(&b);
+            }
+    st.png_store = 2;
+    CHECK(hd_synth_write_set("set3", &st, NULL, NULL) == HD_ERR_RANGE);
+    CHECK(strstr(hd_error(), "png_store") != NULL);
     /* bad options are refused with a reason */
-    hd_synth_options z = {0, 1, 32, 1, 0, 0};
+    hd_synth_options z = {0, 1, 32, 1, 0, 0, 0};
     CHECK(hd_synth_write_set("set3", &z, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "subjects") != NULL);
-    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f};
+    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f, 0};
     CHECK(hd_synth_write_set("set3", &ce, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "coarse-error") != NULL);
 }
 
-/* The PNG writer's FAST effort (what the set's files use) reads back exactly like COMPACT, for
- * 1-4 channels at 8 and 16 bits, odd sizes, out-of-range values and NaN included. */
+/* The PNG writer's FAST and STORE efforts (what the set's files use) read back exactly like
+ * COMPACT, for 1-4 channels at 8 and 16 bits, odd sizes, out-of-range values and NaN included;
+ * the large size needs several of zlib's stored blocks (at most 64 KB each). */
 static void test_png_fast(void)
 {
     hd_rng r;
     hd_rng_seed(&r, 3, 4);
-    for (int channels = 1; channels <= 4; channels++)
-        for (int bits = 8; bits <= 16; bits += 8) {
-            hd_image img = {0}, a = {0}, b = {0};
-            CHECK(hd_image_alloc(&img, 37, 21, channels) == HD_OK);
-            size_t n = (size_t)37 * 21 * channels;
-            for (size_t i = 0; i < n; i++) img.data[i] = i % 5 == 0 ? 0.25f : hd_rng_range(&r, -0.2f, 1.2f);
-            img.data[3] = NAN;
-            CHECK(hd_image_write_png_effort("compact.png", &img, bits, HD_PNG_COMPACT) == HD_OK);
-            CHECK(hd_image_write_png_effort("fast.png", &img, bits, HD_PNG_FAST) == HD_OK);
-            CHECK(hd_image_read("compact.png", &a) == HD_OK);
-            CHECK(hd_image_read("fast.png", &b) == HD_OK);
-            CHECK(a.data && b.data && same_image(&a, &b) && a.channels == channels);
-            if (a.data) CHECK(a.data[3] == 0.0f);
-            hd_image_free(&img);
-            hd_image_free(&a);
-            hd_image_free(&b);
-        }
+    static const int sizes[2][2] = {{37, 21}, {301, 117}};
+    for (int sz = 0; sz < 2; sz++)
+        for (int channels = 1; channels <= 4; channels++)
+            for (int bits = 8; bits <= 16; bits += 8) {
+                hd_image img = {0}, a = {0}, b = {0}, c = {0};
+                int w = sizes[sz][0], h = sizes[sz][1];
+                CHECK(hd_image_alloc(&img, w, h, channels) == HD_OK);
+                size_t n = (size_t)w * h * channels;
+                for (size_t i = 0; i < n; i++) img.data[i] = i % 5 == 0 ? 0.25f : hd_rng_range(&r, -0.2f, 1.2f);
+                img.data[3] = NAN;
+                CHECK(hd_image_write_png_effort("compact.png", &img, bits, HD_PNG_COMPACT) == HD_OK);
+                CHECK(hd_image_write_png_effort("fast.png", &img, bits, HD_PNG_FAST) == HD_OK);
+                CHECK(hd_image_write_png_effort("store.png", &img, bits, HD_PNG_STORE) == HD_OK);
+                CHECK(hd_image_read("compact.png", &a) == HD_OK);
+                CHECK(hd_image_read("fast.png", &b) == HD_OK);
+                CHECK(hd_image_read("store.png", &c) == HD_OK);
+                CHECK(a.data && b.data && same_image(&a, &b) && a.channels == channels);
+                CHECK(a.data && c.data && same_image(&a, &c));
+                if (a.data) CHECK(a.data[3] == 0.0f);
+                /* stored: the samples, one filter byte a row, and a few bytes per block and chunk */
+                long long raw = (long long)h * (1 + (long long)w * channels * (bits / 8));
+                CHECK(file_size_of("store.png") >= raw && file_size_of("store.png") < raw + raw / 50 + 200);
+                hd_image_free(&img);
+                hd_image_free(&a);
+                hd_image_free(&b);
+                hd_image_free(&c);
+            }
     hd_image one = {0};
     CHECK(hd_image_alloc(&one, 2, 2, 1) == HD_OK);
     CHECK(hd_image_write_png_effort("bad.png", &one, 8, (hd_png_effort)7) == HD_ERR_ARG);

@@ -327,9 +327,13 @@ static void encode_normals(const hd_image *normal, const hd_image *mask, hd_imag
 
 hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_face *f)
 {
+    return hd_synth_face_write_effort(dir, name, f, HD_PNG_FAST); /* thousands of files: speed over the last few % of size */
+}
+
+hd_status hd_synth_face_write_effort(const char *dir, const char *name, const hd_synth_face *f, hd_png_effort effort)
+{
     static const char *const suffix[] = {".png", ".mask.png", ".normal.png", ".albedo.png",
                                          ".normal_gt.png", ".shading.png", ".shading.pfm", ".light.txt"};
-    const hd_png_effort fast = HD_PNG_FAST; /* thousands of files: speed over the last few % of size */
     const hd_image *planes[6] = {&f->image, &f->mask, &f->normal, &f->albedo, &f->normal_gt, &f->shading};
     static const int channels[6] = {3, 1, 3, 3, 3, 1};
     for (int k = 0; k < 6; k++)
@@ -349,22 +353,22 @@ hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_
             break;
         }
         switch (k) {
-        case 0: st = hd_image_write_png_effort(file, &f->image, 8, fast); break;
-        case 1: st = hd_image_write_png_effort(file, &f->mask, 8, fast); break;
+        case 0: st = hd_image_write_png_effort(file, &f->image, 8, effort); break;
+        case 1: st = hd_image_write_png_effort(file, &f->mask, 8, effort); break;
         case 2:
             encode_normals(&f->normal, &f->mask, &scratch);
-            st = hd_image_write_png_effort(file, &scratch, 16, fast);
+            st = hd_image_write_png_effort(file, &scratch, 16, effort);
             break;
-        case 3: st = hd_image_write_png_effort(file, &f->albedo, 8, fast); break;
+        case 3: st = hd_image_write_png_effort(file, &f->albedo, 8, effort); break;
         case 4:
             encode_normals(&f->normal_gt, &f->mask, &scratch);
-            st = hd_image_write_png_effort(file, &scratch, 16, fast);
+            st = hd_image_write_png_effort(file, &scratch, 16, effort);
             break;
         case 5: {
             /* shading.png stores s / 2 in 16 bits (shading up to 2) */
             size_t P = (size_t)f->shading.width * f->shading.height;
             for (size_t i = 0; i < P; i++) plane.data[i] = 0.5f * f->shading.data[i];
-            st = hd_image_write_png_effort(file, &plane, 16, fast);
+            st = hd_image_write_png_effort(file, &plane, 16, effort);
             break;
         }
         case 6: st = hd_image_write_pfm(file, &f->shading); break;

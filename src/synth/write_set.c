@@ -103,6 +103,9 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
         return hd_fail(HD_ERR_RANGE, "synth: --per-subject %d outside [1, 10000]", o->per_subject);
     if (!(o->pose_jitter_deg >= 0.0f && o->pose_jitter_deg <= 45.0f))
         return hd_fail(HD_ERR_RANGE, "synth: --pose-jitter %g outside [0, 45] degrees", o->pose_jitter_deg);
+    if (o->png_store != 0 && o->png_store != 1)
+        return hd_fail(HD_ERR_RANGE, "synth: png_store %d is neither 0 nor 1", o->png_store);
+    const hd_png_effort effort = o->png_store ? HD_PNG_STORE : HD_PNG_FAST;
     if (!(o->coarse_error_deg >= 0.0f && o->coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
         return hd_fail(HD_ERR_RANGE, "synth: --coarse-error %g outside [0, %g] degrees", o->coarse_error_deg,
                        HD_SYNTH_COARSE_ERROR_MAX);
@@ -151,7 +154,7 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 snprintf(dir, sizeof dir, "%s/subject_%04d", out, s0 + j);
                 snprintf(name, sizeof name, "%04d", image);
                 hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg, &f);
-                if (e == HD_OK) e = hd_synth_face_write(dir, name, &f);
+                if (e == HD_OK) e = hd_synth_face_write_effort(dir, name, &f, effort);
                 if (e != HD_OK) note_error(&fe, e);
                 long now;
 #pragma omp atomic capture
