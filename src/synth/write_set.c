@@ -61,11 +61,11 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
     hd_image sheet = {0};
     hd_status st = hd_image_alloc(&sheet, cols * (cell + gap) - gap, rows * (cell + gap) - gap, 3);
     if (st != HD_OK) return st;
+    hd_synth_face f = {0}; /* one set of buffers for every render (fresh pages cost more than a render) */
     for (int rsub = 0; rsub < rows && st == HD_OK; rsub++) {
         hd_synth_subject *sub = NULL;
         st = hd_synth_subject_make(s, o->seed, rsub, &sub);
         for (int k = 0; k < imgs && st == HD_OK; k++) {
-            hd_synth_face f = {0};
             st = hd_synth_render(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, &f);
             if (st != HD_OK) break;
             int y0 = rsub * (cell + gap);
@@ -83,10 +83,10 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
                 hd_image_free(&half);
             }
             if (st == HD_OK) st = paste(&sheet, &f.image, cell, (3 + k) * (cell + gap), y0);
-            hd_synth_face_free(&f);
         }
         hd_synth_subject_free(sub);
     }
+    hd_synth_face_free(&f);
     char *path = st == HD_OK ? hd_path_join(out, "preview.sheet.png") : NULL;
     if (st == HD_OK && !path) st = HD_ERR_NOMEM;
     if (st == HD_OK) st = hd_image_write_png(path, &sheet, 8);
