@@ -1,7 +1,8 @@
 /* test_train_gt.c: the training options for sets with ground truth (docs/training.md, "Beyond
  * the paper"): with --light-target gt the target l_hat of L_l is the batch's ground-truth light
  * (and L_l its mean absolute difference to L-Net's light), images without one keep the
- * least-squares fit, and the paper's fit is untouched when no image has one. */
+ * least-squares fit, and the paper's fit is untouched when no image has one. Also the default
+ * micro-batch that keeps the paper's configuration within 8 GB. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -76,5 +77,13 @@ int main(void)
     CHECK(hd_trainer_eval(&t, &again, HD_EVAL_LOSS) == HD_OK);
     CHECK(again.terms[HD_LOSS_LIGHT] == fit.terms[HD_LOSS_LIGHT]);
     hd_trainer_free(&t);
+
+    /* the default micro-batch: 8 pairs at 256, width 48 in 2s (8 GB); small runs whole */
+    hd_net_config paper = {48, 256}, small = {16, 64}, big = {48, 512};
+    CHECK(hd_train_default_micro(&paper, 8) == 2);
+    CHECK(hd_train_default_micro(&paper, 1) == 1);
+    CHECK(hd_train_default_micro(&paper, 3) == 1);
+    CHECK(hd_train_default_micro(&small, 4) == 4);
+    CHECK(hd_train_default_micro(&big, 8) == 1);
     return test_summary("train_gt");
 }

@@ -34,7 +34,7 @@ int cmd_train(int argc, char **argv)
         {"iters", 0, HD_OPT_INT, &iters, "N", "iterations of this run in total, counting resumed ones (default 1000)"},
         {"lnet-iters", 0, HD_OPT_INT, &lnet_iters, "N", "stage 2: iterations training L-Net only first (default iters/5)"},
         {"batch", 0, HD_OPT_INT, &batch, "B", "pairs per iteration (default 8, or the checkpoint's)"},
-        {"micro-batch", 0, HD_OPT_INT, &micro, "M", "pairs per forward pass, dividing B: same gradient, less memory"},
+        {"micro-batch", 0, HD_OPT_INT, &micro, "M", "pairs per forward pass, dividing B: same gradient, less memory (default: B, or what fits 6 GB)"},
         {"size", 0, HD_OPT_INT, &size, "S", "model input side, a multiple of 32 (default 256, or the checkpoint's)"},
         {"width", 0, HD_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
         {"resume", 0, HD_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},

@@ -775,6 +775,17 @@ static hd_status write_samples(const char *path, const hd_trainer *t)
 
 /* ---------------------------------------------------------------- the run */
 
+int hd_train_default_micro(const hd_net_config *cfg, int pairs)
+{
+    /* measured (docs/performance.md): about 2.9 GB per pair at 256 x 256, width 48, most of it
+     * activations and oneDNN's buffers, which grow with the pixels and the width */
+    const double per_pair = 2.9e9 * ((double)cfg->size * cfg->size / (256.0 * 256.0)) * ((double)cfg->width / 48.0);
+    const double budget = 6.0e9;
+    for (int d = pairs; d > 1; d--)
+        if (pairs % d == 0 && d * per_pair <= budget) return d;
+    return 1;
+}
+
 void hd_train_defaults(hd_train_options *o)
 {
     memset(o, 0, sizeof *o);
@@ -877,6 +888,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     if (!cfg.size) cfg.size = 256;
     if (!batch) batch = 8;
     if ((s = hd_net_config_check(&cfg)) != HD_OK) goto done;
+    if (!micro) micro = hd_train_default_micro(&cfg, batch);
 
     if ((s = hd_trainer_create(&t, &cfg, batch, micro, seed)) != HD_OK) goto done;
     t.weights = o->weights;

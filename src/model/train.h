@@ -82,7 +82,7 @@ typedef struct hd_train_options {
     long iters;            /* iterations of this stage's run in total */
     long lnet_iters;       /* stage 2: phase 2a length; < 0: iters / 5 */
     int batch;             /* pairs; 0: 8 (or the checkpoint's) */
-    int micro_batch;       /* pairs per forward pass; 0: the whole batch (or the checkpoint's) */
+    int micro_batch;       /* pairs per forward pass; 0: the checkpoint's, else hd_train_default_micro */
     int size, width;       /* 0: 256 / 48 (or the checkpoint's / the init model's) */
     int resume;
     double time_limit_min; /* 0: none */
@@ -106,6 +106,10 @@ typedef struct hd_train_result {
     hd_step_result last;
 } hd_train_result;
 
+/* The micro-batch a run takes when none is given: the most pairs per forward pass (a divisor of
+ * pairs) whose estimated memory stays within about 6 GB, so that the default batch of 8 pairs at
+ * 256 x 256, width 48 trains in 8 GB (2 pairs at a time); small configurations take the whole batch. */
+int hd_train_default_micro(const hd_net_config *cfg, int pairs);
 /* Defaults of every option (stage 1, gt weights, ...). */
 void hd_train_defaults(hd_train_options *o);
 hd_status hd_train(const hd_train_options *o, hd_train_result *r);
