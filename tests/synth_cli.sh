@@ -1,7 +1,7 @@
 #!/bin/sh
 # synth_cli.sh: `hdnet synth` and `hdnet eval` from the command line: a tiny set has every SPEC
 # section 5 file and a preview; the same seed gives the same files; --coarse-error changes only the
-# coarse normals, --png store only the PNGs' compression; the set's ground truth, laid out as
+# coarse normals, --png fast only the PNGs' compression; the set's ground truth, laid out as
 # `hdnet decompose` writes predictions, scores zero errors and 100 % lighting classification with
 # the baselines under it; a model is scored too; bad options give the documented exit codes.
 set -u
@@ -25,14 +25,14 @@ cmp -s set/subject_0001/0001.normal.png exact/subject_0001/0001.normal.png && fa
 for f in 0001.png 0001.mask.png 0001.albedo.png 0001.normal_gt.png 0001.shading.pfm 0001.light.txt; do
     cmp -s "set/subject_0001/$f" "exact/subject_0001/$f" || fail "--coarse-error changed $f"
 done
-# --png store: the same set with uncompressed PNGs (larger files; test_synth checks that they decode
-# to the same samples), the PFM and the light byte for byte the same
-expect_saying 0 "synth 6/6" "$HDNET" synth stored --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --png store
+# --png fast: the same set with compressed PNGs (smaller files than the default --png store; test_synth
+# checks that both decode to the same samples), the PFM and the light byte for byte the same
+expect_saying 0 "synth 6/6" "$HDNET" synth compact --subjects 3 --per-subject 2 --size 32 --seed 5 --pose-jitter 5 --png fast
 for f in 0001.shading.pfm 0001.light.txt; do
-    cmp -s "set/subject_0001/$f" "stored/subject_0001/$f" || fail "--png store changed $f"
+    cmp -s "set/subject_0001/$f" "compact/subject_0001/$f" || fail "--png fast changed $f"
 done
 for f in 0001.png 0001.normal.png 0001.normal_gt.png 0001.shading.png; do
-    [ "$(wc -c <"stored/subject_0001/$f")" -gt "$(wc -c <"set/subject_0001/$f")" ] || fail "--png store: $f is not larger"
+    [ "$(wc -c <"set/subject_0001/$f")" -gt "$(wc -c <"compact/subject_0001/$f")" ] || fail "--png fast: $f is not smaller"
 done
 
 # ground truth as a prediction, in hdnet decompose's layout
