@@ -55,4 +55,19 @@ int hd_usage_error(const hd_cmd_spec *spec, const char *fmt, ...) __attribute__(
 /* Prints "hdnet CMD: " + hd_error(); returns HD_EXIT_FAIL. */
 int hd_report(const char *cmd);
 
+/* What the commands that apply a model to a photo or an aligned face share: their option rows, */
+#define HD_OPT_MODEL_ROW(var) {"model", 'm', HD_OPT_STRING, &(var), "MODEL", "model file (default: the shipped hdnet-synth model)"}
+#define HD_OPT_FACE_MASK_ROW(var)                                                                                      \
+    {"mask", 0, HD_OPT_STRING, &(var), "M.png",                                                                        \
+     "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"}
+#define HD_OPT_ALIGNED_ROW(var)                                                                                        \
+    {"aligned", 0, HD_OPT_FLAG, &(var), NULL,                                                                          \
+     "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"}
+/* the report of a photo core's failure st for path ("no face found (give --aligned ...)" or the
+ * error; returns HD_EXIT_FAIL), */
+int hd_report_photo(const char *cmd, hd_status st, const char *path);
+/* and the notes on --mask: a photo's faces bring their own; an aligned texture's NAME.mask.png
+ * (mask_source, as hd_face_mask_read found it) wins over it. */
+void hd_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source);
+
 #endif /* HD_CLI_H */

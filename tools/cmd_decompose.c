@@ -221,7 +221,7 @@ int cmd_decompose(int argc, char **argv)
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
     int batch = 4, aligned = 0;
     const hd_opt opts[] = {
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        HD_OPT_MODEL_ROW(model_path),
         {"output", 'o', HD_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
         {"batch", 0, HD_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
         {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",

@@ -14,12 +14,10 @@ int cmd_delight(int argc, char **argv)
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
     int aligned = 0;
     const hd_opt opts[] = {
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        HD_OPT_MODEL_ROW(model_path),
         {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the delit image (8-bit PNG, or .pfm float32; the input's size)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
-         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
-        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
-         "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"},
+        HD_OPT_FACE_MASK_ROW(mask_path),
+        HD_OPT_ALIGNED_ROW(aligned),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -49,18 +47,13 @@ int cmd_delight(int argc, char **argv)
         if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
             hd_aligner_load(&aligner) != HD_OK) {
             rc = hd_report("delight");
-        } else if ((st = hd_relight_photo(model, aligner, &tex, NULL, 0, HD_BRIGHTNESS_KEEP, NULL, &delit, &nfaces)) ==
-                   HD_ERR_NOTFOUND) {
-            fprintf(stderr, "hdnet delight: %s: no face found (give --aligned if it is an aligned face texture)\n",
-                    image_path);
-            rc = HD_EXIT_FAIL;
-        } else if (st != HD_OK) {
-            fprintf(stderr, "hdnet delight: %s: %s\n", image_path, hd_error());
-            rc = HD_EXIT_FAIL;
+        } else if ((st = hd_relight_photo(model, aligner, &tex, NULL, 0, HD_BRIGHTNESS_KEEP, NULL, &delit, &nfaces)) !=
+                   HD_OK) {
+            rc = hd_report_photo("delight", st, image_path);
         } else if (hd_image_write_picture(out, &delit) != HD_OK) {
             rc = hd_report("delight");
         } else {
-            if (mask_path) fprintf(stderr, "hdnet delight: note: --mask is for aligned textures; a photo's faces bring their own\n");
+            hd_note_mask("delight", 1, mask_path, NULL);
             printf("%s: delit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
         }
     } else if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
@@ -68,8 +61,8 @@ int cmd_delight(int argc, char **argv)
                hd_model_load(model_path, &model) != HD_OK || hd_delight_face(model, &tex, &mask, &delit) != HD_OK ||
                hd_image_write_picture(out, &delit) != HD_OK) {
         rc = hd_report("delight");
-    } else if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0) {
-        fprintf(stderr, "hdnet delight: note: used %s beside the image, not --mask %s\n", mask_source, mask_path);
+    } else {
+        hd_note_mask("delight", 0, mask_path, mask_source);
     }
     hd_image_free(&delit);
     hd_image_free(&tex);

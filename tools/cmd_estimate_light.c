@@ -12,12 +12,11 @@ int cmd_estimate_light(int argc, char **argv)
     const char *model_path = NULL, *out = NULL, *preview = NULL;
     int size = 256, aligned = 0;
     const hd_opt opts[] = {
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        HD_OPT_MODEL_ROW(model_path),
         {"output", 'o', HD_OPT_STRING, &out, "L.txt", "the light file (9 numbers, DPR order)"},
         {"preview", 0, HD_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
         {"size", 0, HD_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
-        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
-         "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"},
+        HD_OPT_ALIGNED_ROW(aligned),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -47,13 +46,8 @@ int cmd_estimate_light(int argc, char **argv)
     }
     hd_status st = photo ? hd_estimate_light_photo(model, aligner, &tex, light, &nfaces)
                          : hd_estimate_light(model, &tex, light);
-    if (st == HD_ERR_NOTFOUND && photo) {
-        fprintf(stderr, "hdnet estimate-light: %s: no face found (give --aligned if it is an aligned face texture)\n",
-                image_path);
-        goto done;
-    }
     if (st != HD_OK) {
-        if (photo) fprintf(stderr, "hdnet estimate-light: %s: %s\n", image_path, hd_error());
+        if (photo) hd_report_photo("estimate-light", st, image_path);
         else hd_report("estimate-light");
         goto done;
     }

@@ -62,7 +62,7 @@ int cmd_relight(int argc, char **argv)
     snprintf(ambient_help, sizeof ambient_help, "with --dir: constant shading added everywhere (default %g)",
              (double)HD_LIGHT_DEFAULT_AMBIENT);
     const hd_opt opts[] = {
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        HD_OPT_MODEL_ROW(model_path),
         {"light", 0, HD_OPT_STRING, &light_path, "L.txt", "target light file (9 SH coefficients, DPR order)"},
         {"preset", 0, HD_OPT_STRING, &preset, "K|all",
          "built-in light K in 0..6; 'all' writes all seven, -o is then a folder"},
@@ -71,13 +71,11 @@ int cmd_relight(int argc, char **argv)
         {"intensity", 0, HD_OPT_FLOAT, &intensity, "I", intensity_help},
         {"ambient", 0, HD_OPT_FLOAT, &ambient, "A", ambient_help},
         {"output", 'o', HD_OPT_STRING, &out, "OUT", "relit image (8-bit PNG, or .pfm float32); with --preset all a folder"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
-         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        HD_OPT_FACE_MASK_ROW(mask_path),
         {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
         {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
-        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
-         "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"},
+        HD_OPT_ALIGNED_ROW(aligned),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -143,16 +141,11 @@ int cmd_relight(int argc, char **argv)
             rc = hd_report("relight");
             goto done;
         }
-        if (mask_path) fprintf(stderr, "hdnet relight: note: --mask is for aligned textures; a photo's faces bring their own\n");
+        hd_note_mask("relight", 1, mask_path, NULL);
         hd_status st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])lights, count, brightness,
                                         relit, sheet_path ? &delit : NULL, &nfaces);
-        if (st == HD_ERR_NOTFOUND) {
-            fprintf(stderr, "hdnet relight: %s: no face found (give --aligned if it is an aligned face texture)\n",
-                    image_path);
-            goto done;
-        }
         if (st != HD_OK) {
-            fprintf(stderr, "hdnet relight: %s: %s\n", image_path, hd_error());
+            hd_report_photo("relight", st, image_path);
             goto done;
         }
         printf("%s: relit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
@@ -163,8 +156,7 @@ int cmd_relight(int argc, char **argv)
             rc = hd_report("relight");
             goto done;
         }
-        if (mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
-            fprintf(stderr, "hdnet relight: note: using %s beside the image, not --mask %s\n", mask_source, mask_path);
+        hd_note_mask("relight", 0, mask_path, mask_source);
         if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
                             sheet_path ? &delit : NULL) != HD_OK) {
             rc = hd_report("relight");

@@ -9,26 +9,15 @@
 
 HD_COMMAND("transfer", cmd_transfer, "relight the faces of a photo (or an aligned face) with the light of a reference face")
 
-/* Prints why a photo gave nothing; returns HD_EXIT_FAIL. */
-static int photo_failed(hd_status st, const char *path)
-{
-    if (st == HD_ERR_NOTFOUND)
-        fprintf(stderr, "hdnet transfer: %s: no face found (give --aligned if it is an aligned face texture)\n", path);
-    else
-        fprintf(stderr, "hdnet transfer: %s: %s\n", path, hd_error());
-    return HD_EXIT_FAIL;
-}
-
 int cmd_transfer(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
     int keep = 0, no_keep = 0, aligned = 0;
     const hd_opt opts[] = {
         {"ref", 0, HD_OPT_STRING, &ref_path, "REF", "the photo (its best face) or aligned face whose light is taken"},
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "model file (default: the shipped hdnet-synth model)"},
+        HD_OPT_MODEL_ROW(model_path),
         {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the relit image (8-bit PNG, or .pfm float32; the input's size)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
-         "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"},
+        HD_OPT_FACE_MASK_ROW(mask_path),
         {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the reference light's own level"},
         {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
@@ -70,7 +59,7 @@ int cmd_transfer(int argc, char **argv)
     hd_status st = ref_photo ? hd_estimate_light_photo(model, aligner, &ref, light, &nfaces)
                              : hd_estimate_light(model, &ref, light);
     if (st != HD_OK) {
-        rc = ref_photo ? photo_failed(st, ref_path) : hd_report("transfer");
+        rc = ref_photo ? hd_report_photo("transfer", st, ref_path) : hd_report("transfer");
         goto done;
     }
     if (ref_photo && nfaces > 1)
@@ -80,10 +69,9 @@ int cmd_transfer(int argc, char **argv)
         st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])&light, 1, brightness, &relit, NULL,
                               &nfaces);
         if (st != HD_OK) {
-            rc = photo_failed(st, image_path);
+            rc = hd_report_photo("transfer", st, image_path);
             goto done;
         }
-        if (mask_path) fprintf(stderr, "hdnet transfer: note: --mask is for aligned textures; a photo's faces bring their own\n");
     } else if (hd_relight_face(model, &tex, &mask, light, brightness, &relit) != HD_OK) {
         rc = hd_report("transfer");
         goto done;
@@ -92,8 +80,7 @@ int cmd_transfer(int argc, char **argv)
         rc = hd_report("transfer");
         goto done;
     }
-    if (!photo && mask_path && mask_source && strcmp(mask_source, mask_path) != 0)
-        fprintf(stderr, "hdnet transfer: note: used %s beside the image, not --mask %s\n", mask_source, mask_path);
+    hd_note_mask("transfer", photo, mask_path, mask_source);
     rc = HD_EXIT_OK;
 done:
     hd_image_free(&relit);

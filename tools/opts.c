@@ -23,6 +23,24 @@ int hd_report(const char *cmd)
     return HD_EXIT_FAIL;
 }
 
+int hd_report_photo(const char *cmd, hd_status st, const char *path)
+{
+    if (st == HD_ERR_NOTFOUND)
+        fprintf(stderr, "hdnet %s: %s: no face found (give --aligned if it is an aligned face texture)\n", cmd, path);
+    else
+        fprintf(stderr, "hdnet %s: %s: %s\n", cmd, path, hd_error());
+    return HD_EXIT_FAIL;
+}
+
+void hd_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source)
+{
+    if (!mask_path) return;
+    if (photo)
+        fprintf(stderr, "hdnet %s: note: --mask is for aligned textures; a photo's faces bring their own\n", cmd);
+    else if (mask_source && strcmp(mask_source, mask_path) != 0)
+        fprintf(stderr, "hdnet %s: note: used %s beside the image, not --mask %s\n", cmd, mask_source, mask_path);
+}
+
 static const char *kind_metavar(const hd_opt *o)
 {
     if (o->metavar) return o->metavar;
