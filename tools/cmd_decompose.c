@@ -233,12 +233,12 @@ int cmd_decompose(int argc, char **argv)
     };
     const hd_cmd_spec spec = {
         "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--aligned [--mask M.png]]",
-        "Decomposes the faces of photos, or aligned face textures (SPEC section 2: --aligned, or an image\n"
+        "Decomposes the faces of photos, or aligned face textures (docs/spec.md section 2: --aligned, or an image\n"
         "with NAME.mask.png or NAME.normal.png beside it), into intrinsic components. For each texture\n"
         "NAME it writes, at the model's size: NAME.albedo.png (8 bit), NAME.shading.png (16 bit,\n"
         "storing shading / 2), NAME.shading.pfm (exact), NAME.normal.png (16 bit, (n + 1) / 2, 0\n"
         "outside the mask), NAME.light.txt, NAME.recon.png (albedo x shading) and NAME.sheet.png\n"
-        "(input | albedo | shading | normal | reconstruction). A folder input (SPEC section 5) keeps\n"
+        "(input | albedo | shading | normal | reconstruction). A folder input (docs/spec.md section 5) keeps\n"
         "its subject folders: DIR/SUBJECT/NAME.*. A photo NAME is aligned first: face k gets the same\n"
         "files as NAME.face<k>.*, and NAME.recon.png is the photo with each face's reconstruction warped\n"
         "back and Poisson-blended in. An unreadable image, or a photo without a face, is reported and\n"

@@ -22,7 +22,7 @@ int cmd_estimate_light(int argc, char **argv)
     const hd_cmd_spec spec = {
         "estimate-light", "IMG [-m MODEL] -o L.txt [--preview SPHERE.png] [--aligned]",
         "Writes the light the model estimates for the face in a photo (the best-scoring face, aligned\n"
-        "first) or, with --aligned, for an aligned face texture (SPEC section 2): 9 spherical-harmonics\n"
+        "first) or, with --aligned, for an aligned face texture (docs/spec.md section 2): 9 spherical-harmonics\n"
         "coefficients in DPR's order and scale, loadable by `hdnet relight --light`.",
         opts, 1, 1};
     char **pos = NULL;

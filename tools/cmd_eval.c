@@ -54,7 +54,7 @@ int cmd_eval(int argc, char **argv)
     const hd_cmd_spec spec = {
         "eval", "DATA (-m MODEL | --pred DIR) [--json OUT]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
-        "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
+        "(docs/spec.md section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
         "%% under 20/25/30 degrees), albedo MAE/RMSE, reconstruction MAE/RMSE (A*S against the input),\n"
         "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights).\n"

@@ -46,7 +46,7 @@ int cmd_fit_light(int argc, char **argv)
     };
     const hd_cmd_spec spec = {
         "fit-light", "--normal N.png (--shading S | --image I --albedo A) [--mask M.png] -o L.txt",
-        "Fits the 9 SH coefficients l minimising sum_p m_p (b(n_p) . l - s_p)^2 (SPEC section 2) over\n"
+        "Fits the 9 SH coefficients l minimising sum_p m_p (b(n_p) . l - s_p)^2 (docs/spec.md section 2) over\n"
         "the pixels with a normal and a positive mask, writes them as a light file and prints them\n"
         "with the root-mean-square residual.",
         opts, 0, 0};

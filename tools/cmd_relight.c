@@ -86,7 +86,7 @@ int cmd_relight(int argc, char **argv)
         "relit there (the final albedo I / S, S the predicted shading, times the shading of the target\n"
         "light on the predicted normals), warped back and Poisson-blended into the photo, so everything\n"
         "outside the faces stays as it was. With --aligned (or a NAME.mask.png / NAME.normal.png beside\n"
-        "IMG) IMG is an aligned face texture (SPEC section 2), relit directly; masked-out pixels keep the\n"
+        "IMG) IMG is an aligned face texture (docs/spec.md section 2), relit directly; masked-out pixels keep the\n"
         "input. With --preset all, OUT is a folder that receives NAME.preset0.png .. NAME.preset6.png.\n"
         "The output has the input's size; an OUT ending in .pfm is written as exact float32 PFM.",
         opts, 1, 1};

@@ -41,7 +41,7 @@ int cmd_train(int argc, char **argv)
         {"time-limit", 0, HD_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
         {"threads", 0, HD_OPT_INT, &threads, "T", "threads (default: all)"},
         {"lr", 0, HD_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
-        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
+        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of docs/spec.md section 4 (default gt)"},
         {"w-rec", 0, HD_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
         {"w-albedo", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
         {"w-smooth", 0, HD_OPT_FLOAT, &w[HD_LOSS_SMOOTH], "X", "weight of L_s (gt 0.1, dpr 0.01)"},
