@@ -22,8 +22,10 @@ static void warn(const char *message) { fprintf(stderr, "hdnet train: warning: %
 
 int cmd_train(int argc, char **argv)
 {
-    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit";
-    int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
+    const char *out = NULL, *weights = HD_TRAIN_DEFAULT_WEIGHTS, *init = NULL, *dump = NULL, *prior = "coarse";
+    const char *light_target = "fit";
+    int stage = HD_TRAIN_STAGE_1, iters = HD_TRAIN_DEFAULT_ITERS, batch = 0, size = 0, width = 0, resume = 0, threads = 0;
+    int every = HD_TRAIN_DEFAULT_EVERY, seed = HD_TRAIN_DEFAULT_SEED;
     int lnet_iters = -1, quiet = 0, micro = 0;
     float time_limit = 0, lr = 0;
     float w[HD_LOSS_TERMS];
@@ -100,7 +102,7 @@ int cmd_train(int argc, char **argv)
     }
     o.data_dir = data;
     o.run_dir = out;
-    o.stage = stage;
+    o.stage = (hd_train_stage)stage;
     o.iters = iters;
     o.lnet_iters = lnet_iters;
     o.batch = batch;

@@ -24,6 +24,10 @@ typedef struct hd_meta {
 
 void hd_meta_set(hd_meta *m, const char *key, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
+/* Writes tensors and the metadata (plus format, format_version, width and size from cfg, which
+ * meta may override) atomically to path. */
+hd_status hd_checkpoint_write_tensors(const char *path, const hd_net_config *cfg, const hd_tensor *tensors, int count,
+                                      const hd_meta *meta);
 /* Writes the groups' tensors and the metadata (plus format, format_version, width and size from
  * cfg) atomically to path. */
 hd_status hd_checkpoint_write(const char *path, const hd_net_config *cfg, const hd_tensor_group *groups, int ngroups,
@@ -36,6 +40,8 @@ hd_status hd_checkpoint_config(const hd_safetensors *st, const char *path, hd_ne
 hd_status hd_checkpoint_take(const hd_safetensors *st, const char *path, const hd_tensor_group *g);
 /* An integer metadata value (fails naming the file and key if absent or malformed). */
 hd_status hd_checkpoint_meta_long(const hd_safetensors *st, const char *path, const char *key, long long *v);
+/* The same for an unsigned 64-bit value (RNG states, seeds). */
+hd_status hd_checkpoint_meta_u64(const hd_safetensors *st, const char *path, const char *key, uint64_t *v);
 
 /* Writes an inference model (HD-Net parameters only). */
 hd_status hd_model_write(const char *path, const hd_net_config *cfg, const float *params, long iteration, int stage);

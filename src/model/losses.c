@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "model/losses.h"
+#include "light/light.h"
 
 #define HD_SMOOTH_EPS 0.01f
 
@@ -91,8 +92,7 @@ void hd_losses_free(hd_losses *L)
  *     + l8 c4 (x^2 - z^2) */
 float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3])
 {
-    const float c0 = 0.8862269254527579f, c1 = 1.023326707946488f, c2 = 0.8580855308097834f,
-                c3 = 0.2477079561003757f, c4 = 0.4290427654048917f;
+    const float c0 = HD_SH_C0, c1 = HD_SH_C1, c2 = HD_SH_C2, c3 = HD_SH_C3, c4 = HD_SH_C4; /* light.h's basis */
     float x = n[0], y = n[1], z = n[2];
     dn[0] = l[3] * c1 - l[4] * c2 * z + l[7] * c2 * y + 2 * l[8] * c4 * x;
     dn[1] = l[2] * c1 - l[5] * c2 * z + 6 * l[6] * c3 * y + l[7] * c2 * x;

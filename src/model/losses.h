@@ -10,6 +10,7 @@
 #define HD_LOSSES_H
 
 #include "model/hdnet_net.h"
+#include "model/train_data.h"
 
 typedef enum hd_loss_term {
     HD_LOSS_REC = 0, /* L_Irec: mean_m |I - A*S| */
@@ -40,22 +41,6 @@ typedef enum hd_light_target {
     HD_LIGHT_FROM_COARSE = 0,
     HD_LIGHT_FROM_PREDICTED
 } hd_light_target;
-
-/* A batch of pairs as the networks see it. */
-typedef struct hd_pair_batch {
-    int pairs, size;
-    float *image;         /* (B, 3, HW) */
-    float *mask;          /* (B, HW), 1 where absent */
-    float *coarse_normal; /* (B, 3, HW), 0 where absent */
-    unsigned char *has_normal; /* (B) */
-    float *albedo_gt;          /* (B, 3, HW) ground-truth albedo, 0 where absent */
-    unsigned char *has_albedo; /* (B) */
-    float *light_gt;           /* (B, 9) ground-truth light: l_hat where has_light (not the paper's) */
-    unsigned char *has_light;  /* (B) */
-} hd_pair_batch;
-
-hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size);
-void hd_pair_batch_free(hd_pair_batch *b);
 
 /* Scratch of the losses of one training step, made once per network. */
 typedef struct hd_losses {

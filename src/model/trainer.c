@@ -1,0 +1,178 @@
+/* trainer.c: the HD-Net trainer. One step = forward, the seven losses, backward (SPEC section 4's
+ * gradient paths), NaN checks, the generator's Adam, then the discriminator's loss and Adam, in
+ * micro-batches that sum to the whole batch's gradient. The stages and their phases. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "model/trainer.h"
+
+#define HD_INIT_STREAM 1
+
+void hd_train_init_params(const hd_net_config *cfg, uint64_t seed, float *params, float *disc_params)
+{
+    hd_param_table t, d;
+    hd_net_param_table(cfg, &t);
+    hd_disc_param_table(&d);
+    hd_rng rng;
+    hd_rng_seed(&rng, seed, HD_INIT_STREAM);
+    hd_params_init(&t, params, &rng);
+    if (disc_params) hd_params_init(&d, disc_params, &rng);
+}
+
+hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, int micro, uint64_t seed)
+{
+    memset(t, 0, sizeof *t);
+    if (pairs < 1 || pairs > 1024) return hd_fail(HD_ERR_RANGE, "batch of %d pairs is out of range (1..1024)", pairs);
+    if (micro <= 0) micro = pairs;
+    if (micro > pairs || pairs % micro)
+        return hd_fail(HD_ERR_ARG, "a micro-batch of %d pairs does not divide the batch of %d pairs", micro, pairs);
+    t->micro = micro;
+    hd_status s = hd_net_create(&t->net, cfg, 2 * micro, HD_NET_TRAIN, HD_CONV_AUTO);
+    if (s != HD_OK) return s;
+    if ((s = hd_losses_create(&t->losses, &t->net)) != HD_OK || (s = hd_pair_batch_alloc(&t->batch, pairs, cfg->size)) != HD_OK)
+        goto fail;
+    t->adam_m = hd_calloc(t->net.table.total, sizeof(float));
+    t->adam_v = hd_calloc(t->net.table.total, sizeof(float));
+    t->disc_adam_m = hd_calloc(t->net.disc_table.total, sizeof(float));
+    t->disc_adam_v = hd_calloc(t->net.disc_table.total, sizeof(float));
+    if (!t->adam_m || !t->adam_v || !t->disc_adam_m || !t->disc_adam_v) {
+        s = HD_ERR_NOMEM;
+        goto fail;
+    }
+    t->lnet_offset = t->net.table.p[hd_param_find(&t->net.table, "l_net.conv1.weight")].offset;
+    hd_loss_weights_preset(HD_TRAIN_DEFAULT_WEIGHTS, &t->weights);
+    t->lr = HD_TRAIN_DEFAULT_LR_STAGE1;
+    t->stage = HD_TRAIN_STAGE_1;
+    t->seed = seed;
+    hd_rng_seed(&t->rng, seed, HD_INIT_STREAM);
+    hd_train_init_params(cfg, seed, t->net.params, t->net.disc_params);
+    return HD_OK;
+fail:
+    hd_trainer_free(t);
+    return s;
+}
+
+void hd_trainer_free(hd_trainer *t)
+{
+    hd_losses_free(&t->losses);
+    hd_pair_batch_free(&t->batch);
+    hd_net_free(&t->net);
+    free(t->adam_m);
+    free(t->adam_v);
+    free(t->disc_adam_m);
+    free(t->disc_adam_v);
+    memset(t, 0, sizeof *t);
+}
+
+hd_train_phase hd_trainer_stage_phase(const hd_trainer *t, long it)
+{
+    if (t->stage != HD_TRAIN_STAGE_2) return HD_PHASE_1;
+    return it < t->lnet_iters ? HD_PHASE_2A : HD_PHASE_2B;
+}
+
+const char *hd_train_phase_name(hd_train_phase phase)
+{
+    return phase == HD_PHASE_2A ? "2a" : phase == HD_PHASE_2B ? "2b" : "1";
+}
+
+hd_net_train_set hd_trainer_phase(const hd_trainer *t, long it)
+{
+    return hd_trainer_stage_phase(t, it) == HD_PHASE_2A ? HD_TRAIN_LNET : HD_TRAIN_ALL;
+}
+
+/* The view of micro-batch c of the trainer's batch. */
+static hd_pair_batch chunk_of(const hd_trainer *t, int c)
+{
+    const hd_pair_batch *b = &t->batch;
+    size_t first = (size_t)2 * c * t->micro, HW = (size_t)b->size * b->size;
+    hd_pair_batch v = {t->micro, b->size, b->image + first * 3 * HW, b->mask + first * HW,
+                       b->coarse_normal + first * 3 * HW, b->has_normal + first,
+                       b->albedo_gt + first * 3 * HW, b->has_albedo + first,
+                       b->light_gt + first * HD_SH_COEFFS, b->has_light + first};
+    return v;
+}
+
+hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
+{
+    hd_net *net = &t->net;
+    size_t n = (size_t)net->B * 3 * net->H * net->W;
+    int grad = what & HD_EVAL_GRAD, chunks = t->batch.pairs / t->micro;
+    int disc = what & (HD_EVAL_DISC | HD_EVAL_DISC_GRAD);
+    /* a batch term is the mean over pairs = the mean over micro-batches of their means */
+    float part = 1.0f / (float)chunks;
+    hd_loss_weights w = t->weights;
+    for (int k = 0; k < HD_LOSS_TERMS; k++) w.w[k] *= part;
+    memset(r, 0, sizeof *r);
+    if (grad) memset(net->grads, 0, net->table.total * sizeof(float));
+    if (what & HD_EVAL_DISC_GRAD) memset(net->disc_grads, 0, net->disc_table.total * sizeof(float));
+    for (int c = 0; c < chunks; c++) {
+        t->chunk = chunk_of(t, c);
+        memcpy(net->input, t->chunk.image, n * sizeof(float));
+        hd_net_forward(net);
+        hd_net_zero_act_grad(net);
+        hd_status s = hd_losses_prepare(&t->losses, &t->chunk, t->stage == HD_TRAIN_STAGE_1 ? HD_LIGHT_FROM_COARSE : HD_LIGHT_FROM_PREDICTED);
+        if (s != HD_OK) {
+            char why[400];
+            snprintf(why, sizeof why, "%s", hd_error());
+            return hd_fail(s, "loss term 'light' (its least-squares target) failed at iteration %ld: %s", t->iteration + 1, why);
+        }
+        double terms[HD_LOSS_TERMS];
+        r->total += hd_losses_generator(&t->losses, &w, terms, grad);
+        for (int k = 0; k < HD_LOSS_TERMS; k++) {
+            if (!isfinite(terms[k]))
+                return hd_fail(HD_ERR_NUMERIC, "loss term '%s' is %s at iteration %ld", hd_loss_names[k],
+                               isnan(terms[k]) ? "NaN" : "infinite", t->iteration + 1);
+            r->terms[k] += terms[k] * part;
+        }
+        if (grad) hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+        if (!disc) continue;
+        double d = hd_loss_discriminator(&t->losses, what & HD_EVAL_DISC_GRAD ? part : 0.0f);
+        if (!isfinite(d))
+            return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(d) ? "NaN" : "infinite",
+                           t->iteration + 1);
+        r->disc += d * part;
+    }
+    return HD_OK;
+}
+
+/* The first non-finite value of a table's flat array, or -1 (and its tensor in *which). */
+static int check_finite(const hd_param_table *tab, const float *x, const char **which)
+{
+    for (int i = 0; i < tab->count; i++)
+        for (size_t k = 0; k < tab->p[i].count; k++)
+            if (!isfinite(x[tab->p[i].offset + k])) {
+                *which = tab->p[i].name;
+                return 1;
+            }
+    return 0;
+}
+
+hd_status hd_trainer_step(hd_trainer *t, hd_step_result *r, const char *dump_path)
+{
+    hd_net *net = &t->net;
+    hd_status s = hd_trainer_eval(t, r, HD_EVAL_GRAD | HD_EVAL_DISC_GRAD);
+    if (s != HD_OK) return s;
+    const char *which;
+    if (check_finite(&net->table, net->grads, &which))
+        return hd_fail(HD_ERR_NUMERIC, "the gradient of '%s' is not finite at iteration %ld", which, t->iteration + 1);
+    if (check_finite(&net->disc_table, net->disc_grads, &which))
+        return hd_fail(HD_ERR_NUMERIC, "the gradient of '%s' is not finite at iteration %ld", which, t->iteration + 1);
+    if (dump_path && (s = hd_trainer_write_dump(t, r, dump_path)) != HD_OK) return s;
+    /* Stage 2b starts with fresh Adam moments (2a only moved L-Net's). */
+    if (t->iteration > 0 && hd_trainer_stage_phase(t, t->iteration) == HD_PHASE_2B &&
+        hd_trainer_stage_phase(t, t->iteration - 1) == HD_PHASE_2A) {
+        memset(t->adam_m, 0, net->table.total * sizeof(float));
+        memset(t->adam_v, 0, net->table.total * sizeof(float));
+        t->adam_t = 0;
+    }
+    size_t first = hd_trainer_phase(t, t->iteration) == HD_TRAIN_LNET ? t->lnet_offset : 0;
+    t->adam_t++;
+    hd_adam_step(net->params + first, net->grads + first, t->adam_m + first, t->adam_v + first,
+                 net->table.total - first, t->lr, HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->adam_t);
+    t->disc_adam_t++;
+    hd_adam_step(net->disc_params, net->disc_grads, t->disc_adam_m, t->disc_adam_v, net->disc_table.total, t->lr,
+                 HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->disc_adam_t);
+    t->iteration++;
+    return HD_OK;
+}
