@@ -23,7 +23,8 @@ TOOLSRC := $(sort $(wildcard tools/*.c))
 TOOLOBJ := $(TOOLSRC:%.c=$(BUILD)/%.o)
 TESTSRC := $(sort $(wildcard tests/test_*.c))
 TESTBIN := $(TESTSRC:tests/%.c=$(BUILD)/tests/%)
-HDR     := $(wildcard include/*.h src/*/*.h tools/*.h tests/*.h)
+# Every object and test depends on the headers it includes (gcc -MMD -MP writes BUILD/...d beside it).
+DEPFLAGS = -MMD -MP
 
 all: hdnet
 
@@ -35,21 +36,31 @@ $(BUILD)/libhdnet.a: $(OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@ && ar rcs $@ $^
 
-$(BUILD)/%.o: %.c $(HDR) $(BUILD)/commands.inc
+# A build folder from before the .d files is rebuilt once (the stamp is newer than its objects).
+$(BUILD)/.deps-mmd:
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) -I$(BUILD) -c $< -o $@
+	touch $@
+
+$(BUILD)/%.o: %.c $(BUILD)/.deps-mmd
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(DEPFLAGS) -I$(BUILD) -c $< -o $@
+
+# Only the dispatcher includes the generated command list.
+$(BUILD)/tools/main.o: $(BUILD)/commands.inc
 
 # Every tools/cmd_*.c registers itself with a line HD_COMMAND("name", fn, "summary").
 $(BUILD)/commands.inc: $(TOOLSRC)
 	@mkdir -p $(dir $@)
-	cat /dev/null $(wildcard tools/cmd_*.c) | grep '^HD_COMMAND(' > $@.tmp; mv $@.tmp $@
+	cat /dev/null $(wildcard tools/cmd_*.c) | grep '^HD_COMMAND(' > $@.tmp; cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 
 $(BUILD)/hdnet: $(TOOLOBJ) $(BUILD)/libhdnet.a
 	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
 
-$(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(HDR) $(BUILD)/header_example.inc
+$(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(BUILD)/.deps-mmd
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) -Itests -I$(BUILD) -o $@ $< $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) -MF $@.d -Itests -I$(BUILD) -o $@ $< $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS)
+
+$(BUILD)/tests/test_header_example: $(BUILD)/header_example.inc
 
 # The usage example in the opening comment of include/hdnet.h, extracted so a test compiles and runs it.
 $(BUILD)/header_example.inc: include/hdnet.h
@@ -58,7 +69,10 @@ $(BUILD)/header_example.inc: include/hdnet.h
 
 tests: $(TESTBIN) $(BUILD)/hdnet
 
-# Runs each C test, then each shell test (which drive the built hdnet tool), stopping at the first failure.
+-include $(OBJ:.o=.d) $(TOOLOBJ:.o=.d) $(TESTBIN:=.d)
+
+# Runs each C test, then each shell test (which drive the built hdnet tool), all of them, ending with
+# "N passed, N failed" (and a nonzero status if any failed).
 test: tests
 	@HDNET=$(abspath $(BUILD)/hdnet) BUILD=$(abspath $(BUILD)) sh tests/run.sh $(abspath $(TESTBIN))
 

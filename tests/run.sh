@@ -1,36 +1,39 @@
 #!/bin/sh
 # run.sh: runs every C test binary given on the command line, then every tests/*.sh script (which
-# drive the hdnet tool at $HDNET), each in a scratch directory; stops at the first failure.
+# drive the hdnet tool at $HDNET), each in its own scratch directory; runs them all, names each
+# failure, ends with "N passed, N failed" and exits nonzero if any failed.
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/hdnet-test.XXXXXX")
 trap 'rm -rf "$scratch"' EXIT
 export HDNET_TESTDATA="$here/data"
 pass=0
-for t in "$@"; do
-    name=$(basename "$t")
+failed=""
+
+# run NAME COMMAND...: runs one test in scratch/NAME and counts it.
+run() {
+    name=$1
+    shift
     start=$(date +%s)
     mkdir -p "$scratch/$name"
-    if (cd "$scratch/$name" && "$t"); then
+    if (cd "$scratch/$name" && "$@"); then
         echo "PASS $name ($(( $(date +%s) - start ))s)"
         pass=$((pass + 1))
     else
         echo "FAIL $name"
-        exit 1
+        failed="$failed $name"
     fi
+}
+
+for t in "$@"; do
+    run "$(basename "$t")" "$t"
 done
 for t in "$here"/*.sh; do
     [ "$t" = "$here/run.sh" ] && continue
     [ -f "$t" ] || continue
-    name=$(basename "$t" .sh)
-    start=$(date +%s)
-    mkdir -p "$scratch/$name"
-    if (cd "$scratch/$name" && sh "$t"); then
-        echo "PASS $name ($(( $(date +%s) - start ))s)"
-        pass=$((pass + 1))
-    else
-        echo "FAIL $name"
-        exit 1
-    fi
+    run "$(basename "$t" .sh)" sh "$t"
 done
-echo "all $pass tests passed"
+nfail=$(echo $failed | wc -w)
+[ "$nfail" -eq 0 ] || echo "failed:$failed"
+echo "$pass passed, $nfail failed"
+[ "$nfail" -eq 0 ]
