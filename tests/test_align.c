@@ -9,7 +9,7 @@
 #include "test.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
-#include "align/warp.h"
+#include "align/photo_raster.h"
 
 static hd_mesh canonical;
 

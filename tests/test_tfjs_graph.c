@@ -11,7 +11,7 @@
 #include <cjson/cJSON.h>
 #include "test.h"
 #include "core/core.h"
-#include "align/tfjs_graph.h"
+#include "graph/tfjs_graph.h"
 
 /* ------------------------------------------------------------------ binary16 */
 

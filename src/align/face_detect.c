@@ -18,7 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
-#include "align/tfjs_graph.h"
+#include "graph/tfjs_graph.h"
 #include "align/face_detect.h"
 
 #define DETECT_SIZE 128

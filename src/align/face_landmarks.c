@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
-#include "align/tfjs_graph.h"
+#include "graph/tfjs_graph.h"
 #include "align/face_landmarks.h"
 
 #define MESH_SIZE 192

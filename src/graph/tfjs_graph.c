@@ -14,7 +14,7 @@
 #include <limits.h>
 #include <cjson/cJSON.h>
 #include "core/core.h"
-#include "align/tfjs_graph.h"
+#include "graph/tfjs_graph.h"
 
 #define MAX_JSON_BYTES ((size_t)64 << 20)
 #define MAX_WEIGHT_BYTES ((size_t)1 << 30)

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
-#include "align/warp.h"
+#include "align/photo_raster.h"
 
 int hd_landmark_tri_front(const hd_mesh *mesh, const float (*landmarks)[3], int t)
 {

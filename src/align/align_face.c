@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
-#include "align/warp.h"
+#include "align/photo_raster.h"
 
 /* Largest eigenpair of a symmetric 4x4 matrix by cyclic Jacobi rotations; vec gets the unit
  * eigenvector. */
