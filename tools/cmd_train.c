@@ -7,6 +7,7 @@
 #include <string.h>
 #include "cli.h"
 #include "model/train.h"
+#include "mpi.h"
 
 HD_COMMAND("train", cmd_train, "train HD-Net on pairs of face images (two stages, resumable)")
 
@@ -18,7 +19,27 @@ static void on_signal(int sig)
     stop_requested = 1;
 }
 
-static void warn(const char *message) { fprintf(stderr, "hdnet train: warning: %s\n", message); }
+static void warn(const char *message)
+{
+    if (cli_mpi_ranks() > 1)
+        fprintf(stderr, "hdnet train: rank %d: warning: %s\n", cli_mpi_rank(), message);
+    else
+        fprintf(stderr, "hdnet train: warning: %s\n", message);
+}
+
+/* Under mpirun every rank runs this; rank 0 writes the run folder and reports. A failure on any
+ * rank ends the whole job (the others would wait in the next sum forever). */
+static int train_failed(hd_status s, const char *out)
+{
+    if (cli_mpi_ranks() > 1) {
+        fprintf(stderr, "hdnet train: rank %d of %d: %s\n", cli_mpi_rank(), cli_mpi_ranks(), hd_error());
+        cli_mpi_abort(HD_EXIT_FAIL);
+    } else {
+        hd_report("train");
+    }
+    if (s == HD_ERR_NUMERIC) fprintf(stderr, "hdnet train: stopped; the last good checkpoint in %s is kept\n", out);
+    return HD_EXIT_FAIL;
+}
 
 int cmd_train(int argc, char **argv)
 {
@@ -122,6 +143,8 @@ int cmd_train(int argc, char **argv)
     o.warn = warn;
     o.quiet = quiet;
     if (threads) hd_set_threads(threads);
+    if (cli_mpi_init(NULL, NULL)) return HD_EXIT_FAIL;
+    o.reducer = (hd_reducer){cli_mpi_rank(), cli_mpi_ranks(), cli_mpi_sum_floats, cli_mpi_sum_doubles, NULL};
 
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -132,12 +155,16 @@ int cmd_train(int argc, char **argv)
     sigaction(SIGTERM, &sa, NULL);
 
     hd_train_result r;
+    double t0 = hd_seconds();
     hd_status s = hd_train(&o, &r);
-    if (s != HD_OK) {
-        hd_report("train");
-        if (s == HD_ERR_NUMERIC) fprintf(stderr, "hdnet train: stopped; the last good checkpoint in %s is kept\n", out);
-        return HD_EXIT_FAIL;
-    }
+    if (s != HD_OK) return train_failed(s, out);
+    double seconds = hd_seconds() - t0;
+    int rank = cli_mpi_rank(), ranks = cli_mpi_ranks();
+    cli_mpi_finish();
+    if (rank != 0) return r.end == HD_TRAIN_SIGNALLED ? HD_EXIT_FAIL : HD_EXIT_OK;
+    if (ranks > 1 && r.steps > 0)
+        fprintf(stderr, "hdnet train: %d ranks, %ld steps in %.2f s (%.3f s per step), %.2f s of it in MPI_Allreduce on rank 0\n",
+                ranks, r.steps, seconds, seconds / (double)r.steps, cli_mpi_seconds());
     if (r.steps == 0) {
         printf("nothing to do: %s is at iteration %ld (--iters %d)\n", out, r.iteration, iters);
         return HD_EXIT_OK;

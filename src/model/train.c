@@ -126,7 +126,15 @@ static hd_status read_start(const hd_train_options *o, const char *ckpt, run_sta
     if (!cfg.size) cfg.size = HD_TRAIN_DEFAULT_SIZE;
     if (!batch) batch = HD_TRAIN_DEFAULT_BATCH;
     if ((s = hd_net_config_check(&cfg)) != HD_OK) return s;
-    if (!micro) micro = hd_train_default_micro(&cfg, batch);
+    int R = o->reducer.ranks > 1 ? o->reducer.ranks : 1;
+    if (batch % R)
+        return hd_fail(HD_ERR_ARG, "a batch of %d pairs does not divide among %d ranks", batch, R);
+    /* a checkpoint's micro-batch that does not divide among this run's ranks gives way */
+    if (micro && micro != o->micro_batch && (batch % micro || (batch / micro) % R)) micro = 0;
+    if (!micro) micro = hd_train_default_micro(&cfg, batch / R);
+    if (batch % micro == 0 && (batch / micro) % R)
+        return hd_fail(HD_ERR_ARG, "a batch of %d pairs in micro-batches of %d is %d micro-batches, which do not divide "
+                       "among %d ranks (the batch must divide by ranks x micro-batch)", batch, micro, batch / micro, R);
     rs->cfg = cfg;
     rs->batch = batch;
     rs->micro = micro;
@@ -139,6 +147,7 @@ static hd_status start_trainer(const hd_train_options *o, run_start *rs, hd_trai
 {
     hd_status s = hd_trainer_create(t, &rs->cfg, rs->batch, rs->micro, rs->seed);
     if (s != HD_OK) return s;
+    t->red = o->reducer;
     t->weights = o->weights;
     t->stage = o->stage;
     t->lr = o->lr > 0 ? o->lr : o->stage == HD_TRAIN_STAGE_1 ? HD_TRAIN_DEFAULT_LR_STAGE1 : HD_TRAIN_DEFAULT_LR_STAGE2;
@@ -187,9 +196,22 @@ static void progress_text(const hd_trainer *t, const hd_step_result *res, char *
 }
 
 /* Steps until the iteration count, a signal or the time limit. */
+/* Whether any rank was asked to stop (a signal, its time limit): every rank stops at the same
+ * iteration, with rank 0's checkpoint. */
+static hd_status agree_stop(const hd_trainer *t, int *stop_signal, int *stop_time)
+{
+    if (t->red.ranks <= 1) return HD_OK;
+    double v[2] = {*stop_signal, *stop_time};
+    hd_status s = t->red.sum_doubles(t->red.ctx, v, 2);
+    *stop_signal = v[0] > 0;
+    *stop_time = !*stop_signal && v[1] > 0;
+    return s;
+}
+
 static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *ld, hd_pair_batch *next,
                           const run_paths *p, hd_train_log *log, hd_train_result *r)
 {
+    int writer = t->red.ranks <= 1 || t->red.rank == 0, quiet = o->quiet || !writer;
     double start = hd_seconds();
     hd_progress prog;
     hd_progress_start(&prog, o->stage == HD_TRAIN_STAGE_1 ? "train stage 1" : "train stage 2", o->iters);
@@ -209,22 +231,23 @@ static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *l
         r->last = res;
         r->iteration = t->iteration;
         r->steps++;
-        if ((s = hd_train_log_add(log, t->iteration, &res, hd_seconds() - start)) != HD_OK) return s;
-        if (!o->quiet) {
+        if (writer && (s = hd_train_log_add(log, t->iteration, &res, hd_seconds() - start)) != HD_OK) return s;
+        if (!quiet) {
             char extra[200];
             progress_text(t, &res, extra, sizeof extra);
             hd_progress_update(&prog, t->iteration, extra);
         }
         int stop_signal = o->stop && *o->stop;
         int stop_time = o->time_limit_min > 0 && hd_seconds() - start >= o->time_limit_min * 60.0;
-        if (t->iteration % o->every == 0 || t->iteration == o->iters || stop_signal || stop_time)
+        if ((s = agree_stop(t, &stop_signal, &stop_time)) != HD_OK) return s;
+        if (writer && (t->iteration % o->every == 0 || t->iteration == o->iters || stop_signal || stop_time))
             if ((s = save_all(t, p, log)) != HD_OK) return s;
         if (stop_signal || stop_time) {
             r->end = stop_signal ? HD_TRAIN_SIGNALLED : HD_TRAIN_TIME_LIMIT;
             break;
         }
     }
-    if (!o->quiet) hd_progress_finish(&prog, t->iteration, NULL);
+    if (!quiet) hd_progress_finish(&prog, t->iteration, NULL);
     return HD_OK;
 }
 
@@ -248,17 +271,19 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         (s = read_start(o, paths.ckpt, &rs)) != HD_OK || (s = start_trainer(o, &rs, &t)) != HD_OK)
         goto done;
     hd_safetensors_free(&rs.st); /* read once: the trainer holds what it needed */
-    if ((s = hd_mkdirs(o->run_dir)) != HD_OK || (s = hd_mkdirs(paths.samples)) != HD_OK ||
-        (s = hd_train_log_open(&log, paths.csv, o->resume, t.iteration)) != HD_OK)
+    int writer = o->reducer.ranks <= 1 || o->reducer.rank == 0; /* rank 0 alone writes the run folder */
+    if (writer && ((s = hd_mkdirs(o->run_dir)) != HD_OK || (s = hd_mkdirs(paths.samples)) != HD_OK ||
+                   (s = hd_train_log_open(&log, paths.csv, o->resume, t.iteration)) != HD_OK))
         goto done;
     src.size = rs.cfg.size;
     src.seed = t.seed;
     if ((s = hd_pair_batch_alloc(&next, rs.batch, rs.cfg.size)) != HD_OK) goto done;
     ld.src = &src;
     ld.batch = &next;
+    hd_trainer_share(&t, &ld.first, &ld.count);
     r->iteration = t.iteration;
     if ((s = run_loop(o, &t, &ld, &next, &paths, &log, r)) != HD_OK) goto done;
-    if (t.iteration >= o->iters && r->end == HD_TRAIN_DONE && log.n == 0) {
+    if (writer && t.iteration >= o->iters && r->end == HD_TRAIN_DONE && log.n == 0) {
         /* nothing left to do (resumed at the end): still leave a model */
         s = hd_model_write(paths.model, &t.net.cfg, t.net.params, t.iteration, t.stage);
     }

@@ -36,6 +36,10 @@ typedef struct hd_train_options {
     volatile sig_atomic_t *stop; /* set by a signal handler (may be NULL) */
     void (*warn)(const char *message); /* skipped images and the like (may be NULL) */
     int quiet;             /* no progress line */
+    /* Data-parallel training (docs/scaling.md): rank, rank count and the sum over ranks (zero:
+     * alone). Every rank runs hd_train with the same options; rank 0 alone writes the run folder
+     * and shows progress; the batch's micro-batches must divide among the ranks. */
+    hd_reducer reducer;
 } hd_train_options;
 
 typedef struct hd_train_result {

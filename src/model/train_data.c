@@ -155,16 +155,19 @@ done:
 }
 
 /* Fills the batch of iteration it: pair q and flip f of slot p come from an RNG seeded with
- * (seed, it) only. A pair that fails to load is reported and replaced by the next draw. */
+ * (seed, it, p) only, so a slot's pair does not depend on which process loads it or on the other
+ * slots. A pair that fails to load is reported and replaced by the slot's next draw. Only the slots
+ * [L->first, L->first + L->count) are loaded (count 0: all): a rank's share of the batch. */
 static void load_batch(hd_loader *L)
 {
     const hd_pair_source *src = L->src;
-    hd_rng rng;
-    hd_rng_seed(&rng, src->seed ^ HD_DATA_STREAM, (uint64_t)L->iteration);
     long total = src->cum[src->ds->subject_count];
     L->status = HD_OK;
     L->warnings[0] = '\0';
-    for (int p = 0; p < L->batch->pairs; p++) {
+    int end = L->count > 0 ? L->first + L->count : L->batch->pairs;
+    for (int p = L->count > 0 ? L->first : 0; p < end; p++) {
+        hd_rng rng;
+        hd_rng_seed(&rng, src->seed ^ HD_DATA_STREAM, (uint64_t)L->iteration * HD_TRAIN_MAX_PAIRS + (uint64_t)p);
         int tries = 0;
         for (;;) {
             long q = (long)(((uint64_t)hd_rng_u32(&rng) << 32 | hd_rng_u32(&rng)) % (uint64_t)total);

@@ -9,6 +9,9 @@
 #include "core/core.h"
 #include "io/dataset.h"
 
+/* The most pairs a batch may hold (the data streams of a batch's slots are numbered below it). */
+#define HD_TRAIN_MAX_PAIRS 1024
+
 /* A batch of pairs as the networks see it. */
 typedef struct hd_pair_batch {
     int pairs, size;
@@ -53,6 +56,7 @@ typedef struct hd_loader {
     const hd_pair_source *src;
     hd_pair_batch *batch;
     long iteration;
+    int first, count; /* the slots to fill (count 0: the whole batch) */
     hd_status status;
     char error[512];
     char warnings[2048];

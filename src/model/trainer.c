@@ -23,7 +23,8 @@ void hd_train_init_params(const hd_net_config *cfg, uint64_t seed, float *params
 hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, int micro, uint64_t seed)
 {
     memset(t, 0, sizeof *t);
-    if (pairs < 1 || pairs > 1024) return hd_fail(HD_ERR_RANGE, "batch of %d pairs is out of range (1..1024)", pairs);
+    if (pairs < 1 || pairs > HD_TRAIN_MAX_PAIRS)
+        return hd_fail(HD_ERR_RANGE, "batch of %d pairs is out of range (1..%d)", pairs, HD_TRAIN_MAX_PAIRS);
     if (micro <= 0) micro = pairs;
     if (micro > pairs || pairs % micro)
         return hd_fail(HD_ERR_ARG, "a micro-batch of %d pairs does not divide the batch of %d pairs", micro, pairs);
@@ -36,7 +37,8 @@ hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, 
     t->adam_v = hd_calloc(t->net.table.total, sizeof(float));
     t->disc_adam_m = hd_calloc(t->net.disc_table.total, sizeof(float));
     t->disc_adam_v = hd_calloc(t->net.disc_table.total, sizeof(float));
-    if (!t->adam_m || !t->adam_v || !t->disc_adam_m || !t->disc_adam_v) {
+    t->grad_sum = hd_calloc(t->net.table.total + t->net.disc_table.total, sizeof(double));
+    if (!t->adam_m || !t->adam_v || !t->disc_adam_m || !t->disc_adam_v || !t->grad_sum) {
         s = HD_ERR_NOMEM;
         goto fail;
     }
@@ -62,6 +64,7 @@ void hd_trainer_free(hd_trainer *t)
     free(t->adam_v);
     free(t->disc_adam_m);
     free(t->disc_adam_v);
+    free(t->grad_sum);
     memset(t, 0, sizeof *t);
 }
 
@@ -93,6 +96,35 @@ static hd_pair_batch chunk_of(const hd_trainer *t, int c)
     return v;
 }
 
+void hd_trainer_share(const hd_trainer *t, int *first, int *count)
+{
+    int chunks = t->batch.pairs / t->micro, R = t->red.ranks > 1 ? t->red.ranks : 1, k = t->red.ranks > 1 ? t->red.rank : 0;
+    *first = k * chunks / R * t->micro;
+    *count = ((k + 1) * chunks / R - k * chunks / R) * t->micro;
+}
+
+/* Sums this rank's gradients (in double, t->grad_sum) and losses with every other rank's. */
+static hd_status reduce_over_ranks(hd_trainer *t, hd_step_result *r, size_t n)
+{
+    const hd_reducer *red = &t->red;
+    hd_status s = red->sum_doubles(red->ctx, t->grad_sum, n);
+    if (s != HD_OK) return s;
+    double v[HD_LOSS_TERMS + 2];
+    memcpy(v, r->terms, sizeof r->terms);
+    v[HD_LOSS_TERMS] = r->total;
+    v[HD_LOSS_TERMS + 1] = r->disc;
+    if ((s = red->sum_doubles(red->ctx, v, HD_LOSS_TERMS + 2)) != HD_OK) return s;
+    memcpy(r->terms, v, sizeof r->terms);
+    r->total = v[HD_LOSS_TERMS];
+    r->disc = v[HD_LOSS_TERMS + 1];
+    return HD_OK;
+}
+
+static void add_to(double *sum, const float *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++) sum[i] += x[i];
+}
+
 hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
 {
     hd_net *net = &t->net;
@@ -104,9 +136,17 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
     hd_loss_weights w = t->weights;
     for (int k = 0; k < HD_LOSS_TERMS; k++) w.w[k] *= part;
     memset(r, 0, sizeof *r);
-    if (grad) memset(net->grads, 0, net->table.total * sizeof(float));
-    if (what & HD_EVAL_DISC_GRAD) memset(net->disc_grads, 0, net->disc_table.total * sizeof(float));
-    for (int c = 0; c < chunks; c++) {
+    /* Each micro-batch's gradient is summed in double (grad_sum: HD-Net's, then the
+     * discriminator's), so the float result does not depend on how the micro-batches were split
+     * among ranks: the same --micro-batch gives the same weights on any number of ranks. */
+    size_t ng = net->table.total, nd = net->disc_table.total;
+    int disc_grad = (what & HD_EVAL_DISC_GRAD) != 0;
+    if (grad || disc_grad) memset(t->grad_sum, 0, (ng + nd) * sizeof(double));
+    int first, count;
+    hd_trainer_share(t, &first, &count);
+    for (int c = first / t->micro; c < (first + count) / t->micro; c++) {
+        if (grad) memset(net->grads, 0, ng * sizeof(float));
+        if (disc_grad) memset(net->disc_grads, 0, nd * sizeof(float));
         t->chunk = chunk_of(t, c);
         memcpy(net->input, t->chunk.image, n * sizeof(float));
         hd_net_forward(net);
@@ -125,14 +165,26 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
                                isnan(terms[k]) ? "NaN" : "infinite", t->iteration + 1);
             r->terms[k] += terms[k] * part;
         }
-        if (grad) hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+        if (grad) {
+            hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+            add_to(t->grad_sum, net->grads, ng);
+        }
         if (!disc) continue;
-        double d = hd_loss_discriminator(&t->losses, what & HD_EVAL_DISC_GRAD ? part : 0.0f);
+        double d = hd_loss_discriminator(&t->losses, disc_grad ? part : 0.0f);
         if (!isfinite(d))
             return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(d) ? "NaN" : "infinite",
                            t->iteration + 1);
         r->disc += d * part;
+        if (disc_grad) add_to(t->grad_sum + ng, net->disc_grads, nd);
     }
+    if (t->red.ranks > 1) {
+        hd_status s = reduce_over_ranks(t, r, ng + nd);
+        if (s != HD_OK) return s;
+    }
+    if (grad)
+        for (size_t i = 0; i < ng; i++) net->grads[i] = (float)t->grad_sum[i];
+    if (disc_grad)
+        for (size_t i = 0; i < nd; i++) net->disc_grads[i] = (float)t->grad_sum[ng + i];
     return HD_OK;
 }
 

@@ -38,6 +38,18 @@ typedef enum hd_train_phase {
     HD_PHASE_2B  /* everything, with fresh Adam moments */
 } hd_train_phase;
 
+/* Data-parallel training (docs/scaling.md): this process is rank `rank` of `ranks`; it computes
+ * the gradients of its share of every batch (micro-batches rank * C / ranks up to (rank + 1) * C /
+ * ranks of the batch's C), and sum_floats / sum_doubles sum a buffer over every rank in place (the
+ * caller's MPI_Allreduce), so that every rank takes the same Adam step. ranks <= 1: alone, and the
+ * sums are not called. The library knows nothing of MPI. */
+typedef struct hd_reducer {
+    int rank, ranks;
+    hd_status (*sum_floats)(void *ctx, float *x, size_t n);
+    hd_status (*sum_doubles)(void *ctx, double *x, size_t n);
+    void *ctx;
+} hd_reducer;
+
 /* The optimisation state of one run: the network, the losses' scratch, both Adams. */
 typedef struct hd_trainer {
     hd_net net;
@@ -56,6 +68,8 @@ typedef struct hd_trainer {
     long iteration;  /* steps done */
     uint64_t seed;
     hd_rng rng;      /* checkpointed; data order is derived from (seed, iteration) */
+    hd_reducer red;  /* this rank's share and the sum over ranks (zero: alone) */
+    double *grad_sum; /* (net.table.total + net.disc_table.total) the step's gradients, summed in double */
 } hd_trainer;
 
 /* The outcome of one step. */
@@ -78,6 +92,8 @@ hd_train_phase hd_trainer_stage_phase(const hd_trainer *t, long it);
 const char *hd_train_phase_name(hd_train_phase phase);
 /* What the backward pass of iteration `it` trains: HD_TRAIN_LNET in phase 2a, else HD_TRAIN_ALL. */
 hd_net_train_set hd_trainer_phase(const hd_trainer *t, long it);
+/* The pairs of the batch this rank computes: [*first, *first + *count). Alone: the whole batch. */
+void hd_trainer_share(const hd_trainer *t, int *first, int *count);
 /* What hd_trainer_eval computes besides the generator's losses (flags). */
 typedef enum hd_eval_what {
     HD_EVAL_LOSS = 0,      /* the generator's terms and total only */
@@ -87,7 +103,9 @@ typedef enum hd_eval_what {
 } hd_eval_what;
 
 /* Forward and every loss on t->batch without updating, plus what `what` asks for. Fails with
- * HD_ERR_NUMERIC naming the term if a loss is not finite. */
+ * HD_ERR_NUMERIC naming the term if a loss is not finite. With several ranks it computes this
+ * rank's share, then sums the gradients and the losses over all ranks (every rank ends with the
+ * whole batch's). */
 hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what);
 /* One training step on t->batch: eval, gradient checks (naming the tensor), both Adam updates;
  * t->iteration advances. dump_path (may be NULL) writes the gradient dump of this step. */
