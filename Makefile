@@ -9,12 +9,49 @@ OPT     ?= -O2
 CFLAGS  ?= $(OPT) $(ARCH)
 CFLAGS  += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -Wall -Wextra -fopenmp -Iinclude -Isrc
 LDLIBS  += -lpng -ljpeg -lz -lcjson -lopenblas -lm -fopenmp -lpthread
-# oneDNN is the fast convolution path; `make HD_DNNL=0` builds the portable path only.
-HD_DNNL ?= $(shell test -f /usr/include/dnnl.h && echo 1 || echo 0)
+# The library's version: the one in include/hdnet.h (HDNET_VERSION_MAJOR/MINOR/PATCH).
+VERSION := $(shell sed -n 's/^\#define HDNET_VERSION_[A-Z]* \([0-9]*\).*/\1/p' include/hdnet.h | paste -sd.)
+MAJOR   := $(firstword $(subst ., ,$(VERSION)))
+
+# The default goal (its recipe is below).
+all:
+
+# The Debian/Ubuntu packages the build needs (through sudo unless already root).
+DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev
+deps:
+	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
+	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	    $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends $(DEPS); fi
+
+clean:
+	rm -rf build build-check build-portable build-tsan hdnet
+
+# oneDNN is the fast convolution path; `make HD_DNNL=0` builds the portable path only. Unless
+# HD_DNNL is given, it is decided when something is built, not when make reads this file: every
+# goal re-runs make with HD_DNNL set from whether oneDNN's header is there at that moment, after
+# `deps` (when it is among the goals) has installed it. So `make deps demo` on a fresh machine
+# gives the oneDNN build.
+ifeq ($(origin HD_DNNL),undefined)
+HD_DNNL_NOW = $$(test -f /usr/include/dnnl.h && echo 1 || echo 0)
+GOALS := $(filter-out deps clean,$(or $(MAKECMDGOALS),all))
+ifneq ($(GOALS),)
+$(GOALS): $(filter deps,$(MAKECMDGOALS))
+	@$(MAKE) --no-print-directory HD_DNNL=$(HD_DNNL_NOW) $@
+endif
+# One goal at a time here (each sub-make still runs -j): two goals building one folder at once
+# would race.
+.NOTPARALLEL:
+.PHONY: $(GOALS) deps clean
+else
 ifeq ($(HD_DNNL),1)
+ifeq ($(wildcard /usr/include/dnnl.h),)
+$(error HD_DNNL=1 but oneDNN's header /usr/include/dnnl.h is missing: run `make deps`, or build the portable path with `make HD_DNNL=0`)
+endif
 CFLAGS  += -DHD_HAVE_DNNL=1
 LDLIBS  += -ldnnl
 endif
+# Position-independent objects: the same ones make libhdnet.a and libhdnet.so.
+CFLAGS  += -fPIC
 
 # Open MPI makes `mpirun -np R hdnet train` data-parallel (docs/scaling.md); the tool alone links
 # it, the library knows nothing of MPI. `make HD_MPI=0` builds without it.
@@ -34,7 +71,20 @@ TESTBIN := $(TESTSRC:tests/%.c=$(BUILD)/tests/%)
 # Every object and test depends on the headers it includes (gcc -MMD -MP writes BUILD/...d beside it).
 DEPFLAGS = -MMD -MP
 
-all: hdnet
+all: hdnet $(BUILD)/libhdnet.so
+
+# What the objects were compiled with; rewritten only when it changes, so that switching HD_DNNL,
+# CFLAGS or the compiler in one BUILD folder recompiles everything.
+$(BUILD)/build.cfg: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(CC) $(CFLAGS) $(LDLIBS)' > $@.tmp; if cmp -s $@.tmp $@; then rm $@.tmp; else mv $@.tmp $@; fi
+
+# The install prefix compiled into the data lookup (src/core/data_path.c), likewise.
+$(BUILD)/prefix.cfg: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(PREFIX)' > $@.tmp; if cmp -s $@.tmp $@; then rm $@.tmp; else mv $@.tmp $@; fi
+$(BUILD)/src/core/data_path.o: $(BUILD)/prefix.cfg
+CFLAGS_src/core/data_path.c = -DHD_DATADIR='"$(PREFIX)/share/hdnet"'
 
 # ./hdnet points at the default build only (other BUILD folders leave it alone).
 hdnet: $(BUILD)/hdnet
@@ -44,14 +94,20 @@ $(BUILD)/libhdnet.a: $(OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@ && ar rcs $@ $^
 
+# The shared library: real name libhdnet.so.VERSION, soname libhdnet.so.MAJOR, and the two links.
+$(BUILD)/libhdnet.so.$(VERSION): $(OBJ)
+	$(CC) -shared -Wl,-soname,libhdnet.so.$(MAJOR) -o $@ $^ $(LDFLAGS) $(LDLIBS)
+$(BUILD)/libhdnet.so: $(BUILD)/libhdnet.so.$(VERSION)
+	ln -sf libhdnet.so.$(VERSION) $(BUILD)/libhdnet.so.$(MAJOR) && ln -sf libhdnet.so.$(VERSION) $@
+
 # A build folder from before the .d files is rebuilt once (the stamp is newer than its objects).
 $(BUILD)/.deps-mmd:
 	@mkdir -p $(dir $@)
 	touch $@
 
-$(BUILD)/%.o: %.c $(BUILD)/.deps-mmd
+$(BUILD)/%.o: %.c $(BUILD)/.deps-mmd $(BUILD)/build.cfg
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) $(DEPFLAGS) -I$(BUILD) -c $< -o $@
+	$(CC) $(CFLAGS) $(CFLAGS_$<) $(DEPFLAGS) -I$(BUILD) -c $< -o $@
 
 # Only the tool sees MPI.
 $(TOOLOBJ): CFLAGS += $(MPI_CFLAGS)
@@ -91,13 +147,6 @@ check:
 	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
 
-# The Debian/Ubuntu packages the build needs (through sudo unless already root).
-DEPS := gcc make libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev
-deps:
-	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
-	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
-	    $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends $(DEPS); fi
-
 # Data-parallel training on MPI against the single-process run (tests/mpi/train.sh; needs
 # mpirun and Debian's python3 with numpy). Slow on a busy machine: its own target, which CI calls.
 test-mpi: $(BUILD)/hdnet
@@ -110,16 +159,21 @@ bench: hdnet
 demo: hdnet
 	sh examples/demo.sh
 
-install: hdnet
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/share/hdnet
+# Installs the tool, both libraries, the header, the pkg-config file and the shipped data. The
+# data lookup has PREFIX compiled in, so the library is relinked for the PREFIX given here.
+LIBDIR  ?= $(PREFIX)/lib
+install: hdnet $(BUILD)/libhdnet.so
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/share/hdnet
 	install -m 755 $(BUILD)/hdnet $(DESTDIR)$(PREFIX)/bin/hdnet
-	install -m 644 $(BUILD)/libhdnet.a $(DESTDIR)$(PREFIX)/lib/libhdnet.a
+	install -m 644 $(BUILD)/libhdnet.a $(DESTDIR)$(LIBDIR)/libhdnet.a
+	install -m 755 $(BUILD)/libhdnet.so.$(VERSION) $(DESTDIR)$(LIBDIR)/libhdnet.so.$(VERSION)
+	ln -sf libhdnet.so.$(VERSION) $(DESTDIR)$(LIBDIR)/libhdnet.so.$(MAJOR)
+	ln -sf libhdnet.so.$(VERSION) $(DESTDIR)$(LIBDIR)/libhdnet.so
 	install -m 644 include/hdnet.h $(DESTDIR)$(PREFIX)/include/hdnet.h
-	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBS@|$(LDLIBS)|' hdnet.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/hdnet.pc
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@VERSION@|$(VERSION)|' \
+	    -e 's|@LIBS@|$(subst -fopenmp,-lgomp,$(LDLIBS))|' hdnet.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/hdnet.pc
 	if [ -d models ]; then cp -r models/. $(DESTDIR)$(PREFIX)/share/hdnet/; fi
 
-clean:
-	rm -rf build build-check hdnet
-
-.PHONY: all hdnet tests test check test-mpi bench demo install clean deps
+.PHONY: all hdnet tests test check test-mpi bench demo install FORCE
 .SECONDARY:
+endif

@@ -43,6 +43,16 @@
 extern "C" {
 #endif
 
+/* ---------------------------------------------------------------- version */
+
+/* The version this header belongs to (the shared library's soname carries the major number). */
+#define HDNET_VERSION_MAJOR 0
+#define HDNET_VERSION_MINOR 1
+#define HDNET_VERSION_PATCH 0
+/* The version of the library actually linked, "MAJOR.MINOR.PATCH" (a static string); compare it
+ * with the macros to catch a header and a library that do not match. */
+const char *hd_version(void);
+
 /* ---------------------------------------------------------------- status and errors (core) */
 
 typedef enum hd_status {

@@ -237,6 +237,11 @@ static void test_nc16(void)
         free_result(&ref);
         free(x), free(w), free(b), free(dout), free(g0x), free(g0w), free(g0b);
     }
+#else
+    /* The nc16 plans exist only on the oneDNN path: a portable build (HD_DNNL=0) has none. */
+    printf("SKIP test_nc16 (the nc16 convolution plans against naive): needs oneDNN, built with HD_DNNL=0\n");
+    hd_conv3x3 *p = NULL;
+    CHECK(hd_conv3x3_plan_nc16(&p, 1, 16, 8, 8, 16, 1, HD_ACT_NONE, 0.0f) == HD_ERR_ARG && p == NULL);
 #endif
 }
 

@@ -93,8 +93,11 @@ char *hd_path_companion(const char *path, const char *suffix);
 /* 1 if path is a directory. */
 int hd_is_dir(const char *path);
 /* Finds a data file shipped with hdnet (the canonical mesh, face models, the default model):
- * looks in $HDNET_DATA, then beside the executable (../models, ../share/hdnet), then ./models.
+ * looks in $HDNET_DATA, then beside the executable (../models, ../share/hdnet), then in the
+ * install prefix's PREFIX/share/hdnet (compiled in), then ./models (src/core/data_path.c).
  * Returns a malloc'ed path, or NULL with an HD_ERR_NOTFOUND reason listing where it looked. */
 char *hd_find_data(const char *name);
+/* The compiled-in PREFIX/share/hdnet. */
+const char *hd_data_install_dir(void);
 
 #endif /* HD_CORE_H */

@@ -200,36 +200,3 @@ hd_status hd_mkdirs(const char *path)
     free(p);
     return ok ? HD_OK : hd_fail(HD_ERR_IO, "%s: exists and is not a directory", path);
 }
-
-static int readable(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    fclose(f);
-    return 1;
-}
-
-char *hd_find_data(const char *name)
-{
-    char exe[4096], dirs[4][4200];
-    int nd = 0;
-    const char *env = getenv("HDNET_DATA");
-    if (env && *env) snprintf(dirs[nd++], sizeof dirs[0], "%s", env);
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n > 0) {
-        exe[n] = '\0';
-        char *slash = strrchr(exe, '/');
-        if (slash) *slash = '\0';
-        snprintf(dirs[nd++], sizeof dirs[0], "%s/../models", exe);
-        snprintf(dirs[nd++], sizeof dirs[0], "%s/../share/hdnet", exe);
-    }
-    snprintf(dirs[nd++], sizeof dirs[0], "models");
-    for (int i = 0; i < nd; i++) {
-        char *p = hd_path_join(dirs[i], name);
-        if (!p) return NULL;
-        if (readable(p)) return p;
-        free(p);
-    }
-    hd_fail(HD_ERR_NOTFOUND, "%s: not found in $HDNET_DATA, beside the executable (../models, ../share/hdnet) or ./models", name);
-    return NULL;
-}
