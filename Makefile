@@ -134,7 +134,7 @@ $(BUILD)/header_example.inc: include/hdnet.h
 	@mkdir -p $(dir $@)
 	sed -n '/^ \* Example/,/^ \*\//p' $< | sed -e '1d' -e '$$d' -e 's/^ \*     //' -e 's/^ \*$$//' | grep -v '^#include' > $@.tmp && mv $@.tmp $@
 
-tests: $(TESTBIN) $(BUILD)/hdnet
+tests: $(TESTBIN) $(BUILD)/hdnet $(BUILD)/libhdnet.so
 
 -include $(OBJ:.o=.d) $(TOOLOBJ:.o=.d) $(TESTBIN:=.d)
 
@@ -153,6 +153,18 @@ test-mpi: $(BUILD)/hdnet
 	@d=$$(mktemp -d "$${TMPDIR:-/tmp}/hdnet-mpi.XXXXXX") && cd "$$d" && \
 	    HDNET=$(abspath $(BUILD)/hdnet) sh $(abspath tests/mpi/train.sh); rc=$$?; rm -rf "$$d"; exit $$rc
 
+# ThreadSanitizer over tests/test_threads.c (one model and one aligner in 4 threads). With clang,
+# on the portable path: oneDNN and OpenBLAS are not instrumented (OpenBLAS is kept to one thread),
+# and LLVM's Archer tool makes libomp's own synchronisation visible to TSan, so OpenMP inside the
+# calls is checked too.
+ARCHER ?= $(firstword $(wildcard /usr/lib/llvm-*/lib/libarcher.so))
+tsan:
+	@command -v clang >/dev/null || { echo "tsan: clang is missing (apt-get install clang libomp-dev)"; exit 1; }
+	$(MAKE) BUILD=build-tsan CC=clang HD_DNNL=0 OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=thread" \
+	    LDFLAGS=-fsanitize=thread build-tsan/tests/test_threads
+	mkdir -p build-tsan/run && cd build-tsan/run && OMP_TOOL_LIBRARIES=$(ARCHER) OPENBLAS_NUM_THREADS=1 \
+	    TSAN_OPTIONS="halt_on_error=1 exitcode=66 ignore_noninstrumented_modules=1" HDNET_TESTDATA=$(abspath tests/data) ../tests/test_threads
+
 bench: hdnet
 	./hdnet bench
 
@@ -162,6 +174,9 @@ demo: hdnet
 # Installs the tool, both libraries, the header, the pkg-config file and the shipped data. The
 # data lookup has PREFIX compiled in, so the library is relinked for the PREFIX given here.
 LIBDIR  ?= $(PREFIX)/lib
+# The Python module goes where Debian's python3 looks under the prefix (PREFIX/lib/python3.X/
+# dist-packages: on sys.path for /usr/local; for another prefix, put it on PYTHONPATH).
+PYDIR   ?= $(shell /usr/bin/python3 -c 'import sys; print("$(LIBDIR)/python%d.%d/dist-packages" % sys.version_info[:2])' 2>/dev/null)
 install: hdnet $(BUILD)/libhdnet.so
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/share/hdnet
 	install -m 755 $(BUILD)/hdnet $(DESTDIR)$(PREFIX)/bin/hdnet
@@ -173,7 +188,9 @@ install: hdnet $(BUILD)/libhdnet.so
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@VERSION@|$(VERSION)|' \
 	    -e 's|@LIBS@|$(subst -fopenmp,-lgomp,$(LDLIBS))|' hdnet.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/hdnet.pc
 	if [ -d models ]; then cp -r models/. $(DESTDIR)$(PREFIX)/share/hdnet/; fi
+	if [ -n "$(PYDIR)" ]; then install -d $(DESTDIR)$(PYDIR)/hdnet && \
+	    install -m 644 python/hdnet/__init__.py $(DESTDIR)$(PYDIR)/hdnet/__init__.py; fi
 
-.PHONY: all hdnet tests test check test-mpi bench demo install FORCE
+.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE
 .SECONDARY:
 endif

@@ -77,4 +77,23 @@ for kind in shared static; do
     cmp -s cli.pfm $kind.pfm || fail "relight_$kind's pixels differ from hdnet relight's"
     echo "install: the $kind build relit the photo from $(pwd) exactly as hdnet relight ($(wc -c <$kind.pfm) bytes)"
 done
+# The Python module from the prefix, in a few lines, with Debian's python3 (when it has numpy).
+if /usr/bin/python3 -c 'import numpy' 2>/dev/null; then
+    pydir=$(ls -d "$prefix"/lib/python3*/dist-packages) || fail "make install did not install the Python module"
+    case " ${LDFLAGS:-} " in
+    *-fsanitize=address*) preload=$(${CC:-cc} -print-file-name=libasan.so) ;;
+    *) preload= ;;
+    esac
+    LD_PRELOAD=$preload ASAN_OPTIONS=detect_leaks=0 PYTHONPATH="$pydir" /usr/bin/python3 - "$root/examples/astronaut.png" <<'PY' ||
+import os, sys, hdnet
+assert hdnet.__file__.startswith(os.environ["PYTHONPATH"]), hdnet.__file__
+photo = hdnet.imread(sys.argv[1])
+relit = hdnet.Model().relight(photo, preset=2)
+assert (relit == hdnet.imread("cli.pfm")).all(), "python's pixels differ from hdnet relight's"
+PY
+        fail "the installed Python module did not relight the photo as hdnet relight"
+    echo "install: the installed Python module relit the photo exactly as hdnet relight"
+else
+    echo "install: SKIP the Python module: needs Debian's python3 and python3-numpy"
+fi
 echo "install: all checks passed"

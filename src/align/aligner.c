@@ -3,6 +3,7 @@
  * into the photo, and whole photos through detection and landmarks (hd_align_photo). */
 #include <ctype.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -182,18 +183,50 @@ done:
 /* MediaPipe drops a face whose landmark model gives a presence below this. */
 #define MIN_PRESENCE 0.5f
 
-struct hd_aligner {
+/* One detector and one landmark model with their working memory: what one hd_aligner_run uses. */
+typedef struct align_runner {
     hd_face_detector *detector;
     hd_face_mesh *landmarks;
+    struct align_runner *next;
+} align_runner;
+
+/* An aligner is a pool of runners: a run takes an idle one (or loads another, when every runner is
+ * busy in another thread) and puts it back, so one aligner serves any number of threads. */
+struct hd_aligner {
+    pthread_mutex_t lock; /* guards idle */
+    align_runner *idle;
 };
+
+static void runner_free(align_runner *r)
+{
+    if (!r) return;
+    if (r->detector) hd_face_detector_free(r->detector);
+    if (r->landmarks) hd_face_mesh_free(r->landmarks);
+    free(r);
+}
+
+static hd_status runner_load(align_runner **out)
+{
+    *out = NULL;
+    align_runner *r = hd_calloc(1, sizeof *r);
+    if (!r) return HD_ERR_NOMEM;
+    hd_status st = hd_face_detector_load(NULL, &r->detector);
+    if (!st) st = hd_face_mesh_load(NULL, &r->landmarks);
+    if (st) {
+        runner_free(r);
+        return st;
+    }
+    *out = r;
+    return HD_OK;
+}
 
 hd_status hd_aligner_load(hd_aligner **aligner)
 {
     *aligner = NULL;
     hd_aligner *a = hd_calloc(1, sizeof *a);
     if (!a) return HD_ERR_NOMEM;
-    hd_status st = hd_face_detector_load(NULL, &a->detector);
-    if (!st) st = hd_face_mesh_load(NULL, &a->landmarks);
+    pthread_mutex_init(&a->lock, NULL);
+    hd_status st = runner_load(&a->idle);
     if (st) {
         hd_aligner_free(a);
         return st;
@@ -205,9 +238,35 @@ hd_status hd_aligner_load(hd_aligner **aligner)
 void hd_aligner_free(hd_aligner *aligner)
 {
     if (!aligner) return;
-    if (aligner->detector) hd_face_detector_free(aligner->detector);
-    if (aligner->landmarks) hd_face_mesh_free(aligner->landmarks);
+    while (aligner->idle) {
+        align_runner *r = aligner->idle;
+        aligner->idle = r->next;
+        runner_free(r);
+    }
+    pthread_mutex_destroy(&aligner->lock);
     free(aligner);
+}
+
+static hd_status runner_run(align_runner *runner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+
+hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
+{
+    *faces = NULL;
+    *count = 0;
+    if (!aligner) return hd_fail(HD_ERR_ARG, "align: no aligner");
+    hd_apply_threads();
+    pthread_mutex_lock(&aligner->lock);
+    align_runner *r = aligner->idle;
+    if (r) aligner->idle = r->next;
+    pthread_mutex_unlock(&aligner->lock);
+    hd_status st = r ? HD_OK : runner_load(&r);
+    if (st) return st;
+    st = runner_run(r, photo, size, faces, count);
+    pthread_mutex_lock(&aligner->lock);
+    r->next = aligner->idle;
+    aligner->idle = r;
+    pthread_mutex_unlock(&aligner->lock);
+    return st;
 }
 
 hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count)
@@ -222,7 +281,7 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     return st;
 }
 
-hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
+static hd_status runner_run(align_runner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
 {
     *faces = NULL;
     *count = 0;

@@ -12,6 +12,9 @@
  *      return hd_fail(HD_ERR_FORMAT, "%s: truncated PNG", path); */
 hd_status hd_fail(hd_status code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 void hd_clear_error(void);
+/* Applies hd_set_threads' count to the calling thread's OpenMP setting (entry points that run
+ * parallel loops call it first, so a count set in one thread holds in all). */
+void hd_apply_threads(void);
 
 /* ---- checked size arithmetic: return 0 on overflow (and leave *out untouched). */
 int hd_mul_size(size_t a, size_t b, size_t *out);

@@ -1,4 +1,4 @@
-/* error.c: the thread-local failure reason behind hd_error(), and the thread-count setting. */
+/* error.c: the thread-local failure reason behind hd_error(), and the library-wide thread count. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -39,9 +39,22 @@ const char *hd_status_name(hd_status status)
     return "unknown status";
 }
 
+/* The count set by hd_set_threads, for every thread: OpenMP's own setting is per thread, so the
+ * entry points that run parallel loops apply this one on the thread that calls them. */
+static _Atomic int library_threads;
+
 void hd_set_threads(int threads)
 {
-    if (threads > 0) omp_set_num_threads(threads);
+    if (threads > 0) {
+        library_threads = threads;
+        omp_set_num_threads(threads);
+    }
+}
+
+void hd_apply_threads(void)
+{
+    int n = library_threads;
+    if (n > 0 && omp_get_max_threads() != n) omp_set_num_threads(n);
 }
 
 int hd_threads(void) { return omp_get_max_threads(); }

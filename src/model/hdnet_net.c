@@ -195,7 +195,9 @@ static void layout(hd_net *net, carver *c)
     net->g_logit = carve(c, B * (size_t)net->Hp * net->Wp);
 }
 
-hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mode mode, hd_conv_path path)
+/* weights NULL: the net owns zeroed parameters; else it reads the caller's (inference only). */
+static hd_status net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mode mode, hd_conv_path path,
+                            const float *weights)
 {
     memset(net, 0, sizeof *net);
     hd_status st = hd_net_config_check(cfg);
@@ -249,7 +251,8 @@ hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mod
     }
     net->act_floats = c.used;
     net->act_mem = hd_calloc(c.used, sizeof(float));
-    net->params = hd_calloc(net->table.total, sizeof(float));
+    net->weights_borrowed = weights != NULL;
+    net->params = weights ? (float *)weights : hd_calloc(net->table.total, sizeof(float));
     if (!net->act_mem || !net->params) {
         st = HD_ERR_NOMEM;
         goto fail;
@@ -275,6 +278,17 @@ fail:
     return st;
 }
 
+hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mode mode, hd_conv_path path)
+{
+    return net_create(net, cfg, B, mode, path, NULL);
+}
+
+hd_status hd_net_create_run(hd_net *net, const hd_net_config *cfg, int B, hd_conv_path path, const float *weights)
+{
+    if (!weights) return hd_fail(HD_ERR_ARG, "hd_net_create_run: no weights");
+    return net_create(net, cfg, B, HD_NET_INFER, path, weights);
+}
+
 void hd_net_free(hd_net *net)
 {
     if (!net) return;
@@ -284,7 +298,7 @@ void hd_net_free(hd_net *net)
     hd_conv3x3 *plans[] = {net->conv_in, net->l_conv1, net->l_conv2, net->d_c1, net->d_c2, net->d_c3, net->d_c4, net->d_out};
     for (size_t i = 0; i < sizeof plans / sizeof plans[0]; i++) hd_conv3x3_free(plans[i]);
     free(net->act_mem);
-    free(net->params);
+    if (!net->weights_borrowed) free(net->params);
     free(net->grads);
     free(net->disc_params);
     free(net->disc_grads);

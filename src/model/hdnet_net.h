@@ -76,13 +76,19 @@ typedef struct hd_net_profile {
     double fwd[HD_NET_STAGES], bwd[HD_NET_STAGES];
 } hd_net_profile;
 
+/* A network is its configuration and weights (cfg, table, params) and its run state (the conv
+ * plans with their scratch, the activations and gradients). The weights are owned (hd_net_create:
+ * training, one net per trainer) or borrowed read-only (hd_net_create_run: inference, many run
+ * states over one model's weights, one per concurrent call). A forward only writes the run state,
+ * so nets sharing weights may run in different threads at once. */
 typedef struct hd_net {
     hd_net_config cfg;
     hd_net_mode mode;
     int B, H, W;
     hd_param_table table, disc_table;
     size_t off_a, off_s, off_n; /* float offsets of the sub-nets in params */
-    float *params, *grads;      /* (table.total) */
+    float *params, *grads;      /* (table.total); params not written when weights_borrowed */
+    int weights_borrowed;       /* params belong to the caller (hd_net_create_run) */
     float *disc_params, *disc_grads; /* (disc_table.total), TRAIN only */
 
     hd_unet *a_net, *s_net, *n_net;
@@ -125,6 +131,10 @@ typedef struct hd_net {
 /* Makes a network for batches of B images at cfg->size; parameters are allocated (zeroed: load or
  * init them). */
 hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mode mode, hd_conv_path path);
+/* An inference run state (HD_NET_INFER) for batches of B over `weights` (table.total floats in the
+ * order of hd_net_param_table), which the net reads but neither copies, writes nor frees: they
+ * must outlive it. */
+hd_status hd_net_create_run(hd_net *net, const hd_net_config *cfg, int B, hd_conv_path path, const float *weights);
 void hd_net_free(hd_net *net);
 
 /* Forward of net->input: albedo, shading, normal, light (and everything backward needs). */

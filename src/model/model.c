@@ -1,19 +1,28 @@
-/* model.c: the public inference API of include/hdnet.h: hd_model_load (a model file, or the
- * installed default) and hd_model_decompose (albedo, shading, normals, light and reconstruction of
- * images at the model's size, in batches through one network made at the first call). */
-#include <stdio.h>
+/* model.c: the public model of include/hdnet.h: hd_model_load, hd_model_decompose. A model is its
+ * configuration and weights, read-only once loaded, and a pool of run states (hd_net over the
+ * model's weights, made by hd_net_create_run): each decompose call takes an idle run state of its
+ * batch size from the pool, or makes one, and puts it back when done. So any number of threads may
+ * decompose with one model at once; each gets activations of its own, and a call's results depend
+ * only on its inputs (the batch size follows the call, not the pool). */
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include "model/checkpoint.h"
 
 #define HD_DECOMPOSE_BATCH 4
 
+/* An idle run state in the pool, for batches of net.B images. */
+typedef struct run_state {
+    hd_net net;
+    struct run_state *next;
+} run_state;
+
 struct hd_model {
     hd_net_config cfg;
     hd_param_table table;
-    float *params;
-    hd_net net; /* made at the first decompose */
-    int have_net;
+    float *params; /* the weights: written by hd_model_load only */
+    pthread_mutex_t lock; /* guards idle */
+    run_state *idle[HD_DECOMPOSE_BATCH + 1]; /* idle run states by batch size */
 };
 
 hd_status hd_model_load(const char *path, hd_model **model)
@@ -38,6 +47,7 @@ hd_status hd_model_load(const char *path, hd_model **model)
         s = HD_ERR_NOMEM;
         goto done;
     }
+    pthread_mutex_init(&m->lock, NULL);
     if ((s = hd_checkpoint_config(&st, path, &m->cfg)) != HD_OK) goto done;
     hd_net_param_table(&m->cfg, &m->table);
     m->params = hd_calloc(m->table.total, sizeof(float));
@@ -61,13 +71,48 @@ done:
 void hd_model_free(hd_model *model)
 {
     if (!model) return;
-    if (model->have_net) hd_net_free(&model->net);
+    for (int b = 0; b <= HD_DECOMPOSE_BATCH; b++)
+        while (model->idle[b]) {
+            run_state *r = model->idle[b];
+            model->idle[b] = r->next;
+            hd_net_free(&r->net);
+            free(r);
+        }
+    pthread_mutex_destroy(&model->lock);
     free(model->params);
     free(model);
 }
 
 int hd_model_size(const hd_model *model) { return model->cfg.size; }
 int hd_model_width(const hd_model *model) { return model->cfg.width; }
+
+/* An idle run state for batches of B from the pool, or a new one. */
+static hd_status take_run_state(hd_model *m, int B, run_state **out)
+{
+    pthread_mutex_lock(&m->lock);
+    run_state *r = m->idle[B];
+    if (r) m->idle[B] = r->next;
+    pthread_mutex_unlock(&m->lock);
+    if (!r) {
+        r = hd_calloc(1, sizeof *r);
+        if (!r) return HD_ERR_NOMEM;
+        hd_status s = hd_net_create_run(&r->net, &m->cfg, B, HD_CONV_AUTO, m->params);
+        if (s != HD_OK) {
+            free(r);
+            return s;
+        }
+    }
+    *out = r;
+    return HD_OK;
+}
+
+static void give_back(hd_model *m, run_state *r)
+{
+    pthread_mutex_lock(&m->lock);
+    r->next = m->idle[r->net.B];
+    m->idle[r->net.B] = r;
+    pthread_mutex_unlock(&m->lock);
+}
 
 void hd_decomposition_free(hd_decomposition *d)
 {
@@ -107,14 +152,11 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
     if (!model || (count > 0 && (!images || !out))) return hd_fail(HD_ERR_ARG, "hd_model_decompose: missing argument");
     if (count <= 0) return HD_OK;
     for (int i = 0; i < count; i++) memset(&out[i], 0, sizeof out[i]);
-    hd_status s;
-    if (!model->have_net) {
-        int B = count < HD_DECOMPOSE_BATCH ? count : HD_DECOMPOSE_BATCH;
-        if ((s = hd_net_create(&model->net, &model->cfg, B, HD_NET_INFER, HD_CONV_AUTO)) != HD_OK) return s;
-        memcpy(model->net.params, model->params, model->table.total * sizeof(float));
-        model->have_net = 1;
-    }
-    hd_net *net = &model->net;
+    hd_apply_threads();
+    run_state *r;
+    hd_status s = take_run_state(model, count < HD_DECOMPOSE_BATCH ? count : HD_DECOMPOSE_BATCH, &r);
+    if (s != HD_OK) return s;
+    hd_net *net = &r->net;
     int size = model->cfg.size;
     size_t HW = (size_t)size * size;
     for (int first = 0; first < count; first += net->B) {
@@ -139,8 +181,10 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
             memcpy(d->light, net->light + (size_t)k * HD_SH_COEFFS, sizeof d->light);
         }
     }
+    give_back(model, r);
     return HD_OK;
 fail:
+    give_back(model, r);
     for (int i = 0; i < count; i++) hd_decomposition_free(&out[i]);
     return s;
 }

@@ -15,8 +15,12 @@
  *
  * Accumulation: oneDNN's backward primitives overwrite, so they write into plan-owned buffers
  * which are then reordered into the caller's dinp / dw with a sum post-op (dst = dst + src); the
- * bias gradient (OC floats) is added by hand. The engine and stream are one per process.
- */
+ * bias gradient (OC floats) is added by hand.
+ *
+ * Threads: the engine is one per process (made once, under pthread_once); each plan has its own
+ * stream, primitives and buffers, so plans (one per network run state) run in different threads
+ * at once. */
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include "nn/conv3x3_impl.h"
@@ -54,10 +58,16 @@ typedef struct dn {
     view bh_w;
     dnnl_memory_t bh_ddst, bh_dsrc;
     int c_head;
+    dnnl_stream_t stream; /* this plan's own */
 } dn;
 
 static dnnl_engine_t engine;
-static dnnl_stream_t stream;
+static pthread_once_t engine_once = PTHREAD_ONCE_INIT;
+
+static void engine_make(void)
+{
+    if (dnnl_engine_create(&engine, dnnl_cpu, 0) != dnnl_success) engine = NULL;
+}
 
 #define DN(call)                                                                   \
     do {                                                                           \
@@ -70,15 +80,8 @@ static dnnl_stream_t stream;
 
 static hd_status dn_init(void)
 {
-    if (engine) return HD_OK;
-    if (dnnl_engine_create(&engine, dnnl_cpu, 0) != dnnl_success)
-        return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no CPU engine");
-    if (dnnl_stream_create(&stream, engine, dnnl_stream_default_flags) != dnnl_success) {
-        dnnl_engine_destroy(engine);
-        engine = NULL;
-        return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no stream");
-    }
-    return HD_OK;
+    pthread_once(&engine_once, engine_make);
+    return engine ? HD_OK : hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no CPU engine");
 }
 
 static dnnl_status_t attr_user_scratch(dnnl_primitive_attr_t *attr)
@@ -151,6 +154,11 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     dn *d = hd_calloc(1, sizeof *d);
     if (!d) return HD_ERR_NOMEM;
     p->dnnl = d;
+    if (dnnl_stream_create(&d->stream, engine, dnnl_stream_default_flags) != dnnl_success) {
+        d->stream = NULL;
+        hd_conv3x3_dnnl_free(p);
+        return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no stream");
+    }
     dnnl_primitive_desc_t fpd = NULL, dpd = NULL, wpd = NULL;
     dnnl_primitive_attr_t fattr = NULL, dattr = NULL, wattr = NULL;
     dnnl_post_ops_t po = NULL;
@@ -350,6 +358,7 @@ void hd_conv3x3_dnnl_free(hd_conv3x3 *p)
     if (d->dbias) dnnl_memory_destroy(d->dbias);
     if (d->scratch) dnnl_memory_destroy(d->scratch);
     if (d->dsrc_tmp) dnnl_memory_destroy(d->dsrc_tmp);
+    if (d->stream) dnnl_stream_destroy(d->stream);
     free(d->zero_bias);
     free(d->dbias_buf);
     free(d);
@@ -360,7 +369,7 @@ void hd_conv3x3_dnnl_free(hd_conv3x3 *p)
 static void run_reorder(dn *d, dnnl_primitive_t r, dnnl_memory_t from, dnnl_memory_t to)
 {
     dnnl_exec_arg_t args[3] = {{DNNL_ARG_FROM, from}, {DNNL_ARG_TO, to}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
-    dnnl_primitive_execute(r, stream, 3, args);
+    dnnl_primitive_execute(r, d->stream, 3, args);
 }
 
 /* Points an input view at ptr and brings it into the primitive's format. */
@@ -379,9 +388,9 @@ void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const 
     dnnl_memory_set_data_handle(d->dst.user, out);
     dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_WEIGHTS, wt}, {DNNL_ARG_BIAS, d->bias},
                                {DNNL_ARG_DST, d->dst.prim}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
-    dnnl_primitive_execute(d->fwd, stream, 5, args);
+    dnnl_primitive_execute(d->fwd, d->stream, 5, args);
     if (d->dst.reorder) run_reorder(d, d->dst.reorder, d->dst.prim, d->dst.user);
-    dnnl_stream_wait(stream);
+    dnnl_stream_wait(d->stream);
     d->last_src = inp;
     if (d->act_pass) hd_conv3x3_lrelu(out, p->out_n, p->slope);
 }
@@ -402,13 +411,13 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         }
         dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, ddst}, {DNNL_ARG_WEIGHTS, wt},
                                    {DNNL_ARG_DIFF_SRC, dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
-        dnnl_primitive_execute(d->bwd_data, stream, 4, args);
+        dnnl_primitive_execute(d->bwd_data, d->stream, 4, args);
         if (!p->nc16) {
             /* a reorder with a sum post-op: dinp += dsrc */
             dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
             run_reorder(d, d->bd_dsrc.reorder, d->bd_dsrc.prim, d->bd_dsrc.user);
         } else if (!overwrite) {
-            dnnl_stream_wait(stream);
+            dnnl_stream_wait(d->stream);
             void *h = NULL;
             dnnl_memory_get_data_handle(d->dsrc_tmp, &h);
             const float *t = h;
@@ -426,16 +435,16 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_DIFF_DST, ddst},
                                    {DNNL_ARG_DIFF_WEIGHTS, d->bw_dw.prim}, {DNNL_ARG_DIFF_BIAS, d->dbias},
                                    {DNNL_ARG_SCRATCHPAD, d->scratch}};
-        dnnl_primitive_execute(d->bwd_weights, stream, 5, args);
+        dnnl_primitive_execute(d->bwd_weights, d->stream, 5, args);
         if (dw) {
             dnnl_memory_set_data_handle(d->bw_dw.user, dw);
             run_reorder(d, d->bw_dw.reorder, d->bw_dw.prim, d->bw_dw.user);
         }
-        dnnl_stream_wait(stream);
+        dnnl_stream_wait(d->stream);
         if (db)
             for (int o = 0; o < p->OC; o++) db[o] += d->dbias_buf[o];
     }
-    dnnl_stream_wait(stream);
+    dnnl_stream_wait(d->stream);
 }
 
 void hd_conv3x3_dnnl_backward_head(hd_conv3x3 *p, float *dinp, const float *dout, const float *w)
@@ -448,8 +457,8 @@ void hd_conv3x3_dnnl_backward_head(hd_conv3x3 *p, float *dinp, const float *dout
         dnnl_memory_set_data_handle(d->bh_dsrc, dinp + n * in_img);
         dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, d->bh_ddst}, {DNNL_ARG_WEIGHTS, wt},
                                    {DNNL_ARG_DIFF_SRC, d->bh_dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
-        dnnl_primitive_execute(d->bwd_head, stream, 4, args);
+        dnnl_primitive_execute(d->bwd_head, d->stream, 4, args);
     }
-    dnnl_stream_wait(stream);
+    dnnl_stream_wait(d->stream);
 }
 #endif

@@ -1,0 +1,134 @@
+"""test_python.py: the Python module (python/hdnet) against the hdnet tool and itself, with the
+shipped model on the bundled photo: relight/delight/transfer/estimate-light equal the CLI's pixels
+exactly; uint8 and float32 inputs agree; light=, preset= and direction= agree; decompose's maps have
+the documented shapes and ranges; errors raise hdnet.Error with the library's message; calls release
+the GIL (a Python thread keeps counting during one) and two threads sharing the model get the
+serial results. Run by tests/python.sh: python3 test_python.py ROOT HDNET (in a scratch folder)."""
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import hdnet
+
+root, tool = sys.argv[1], sys.argv[2]
+photo_path = os.path.join(root, "examples", "astronaut.png")
+failures = 0
+
+
+def check(cond, what):
+    global failures
+    if not cond:
+        print("test_python: FAILED: " + what, file=sys.stderr)
+        failures += 1
+
+
+def cli(*args):
+    subprocess.run([tool] + list(args), check=True, stdout=subprocess.DEVNULL)
+
+
+version = open(os.path.join(root, "include", "hdnet.h")).read()
+want = ".".join(line.split()[2] for line in version.splitlines() if line.startswith("#define HDNET_VERSION_"))
+check(hdnet.version() == want, "version %s, header %s" % (hdnet.version(), want))
+
+photo = hdnet.imread(photo_path)
+check(photo.shape == (512, 512, 3) and photo.dtype == np.float32, "imread shape %s" % (photo.shape,))
+photo8 = np.round(photo * 255).astype(np.uint8)
+model = hdnet.Model()
+
+# relight: as the CLI, byte for byte; uint8 and float32 inputs; the three ways to give the light
+cli("relight", photo_path, "--preset", "2", "-o", "cli_relit.pfm")
+relit = model.relight(photo8, preset=2)
+check(relit.shape == photo.shape and relit.dtype == np.float32, "relight shape %s" % (relit.shape,))
+check(np.array_equal(relit, hdnet.imread("cli_relit.pfm")), "relight differs from hdnet relight --preset 2")
+check(np.array_equal(relit, model.relight(photo, preset=2)), "uint8 and float32 inputs differ")
+check(np.array_equal(relit, model.relight(photo, light=hdnet.light_preset(2))), "light= differs from preset=")
+cli("relight", photo_path, "--dir", "40,20", "-o", "cli_dir.pfm")
+check(np.array_equal(model.relight(photo, direction=(40, 20)), hdnet.imread("cli_dir.pfm")),
+      "direction= differs from hdnet relight --dir 40,20")
+check(np.abs(relit - photo).max() > 0.05, "relighting changed nothing")
+
+# delight, estimate-light and transfer, as the CLI
+cli("delight", photo_path, "-o", "cli_delit.pfm")
+check(np.array_equal(model.delight(photo), hdnet.imread("cli_delit.pfm")), "delight differs from hdnet delight")
+light = model.estimate_light(photo)
+cli("estimate-light", photo_path, "-o", "cli.light.txt")
+cli_light = np.array(open("cli.light.txt").read().split(), dtype=np.float32)
+check(light.shape == (9,) and np.allclose(light, cli_light, atol=1e-5), "estimate_light %s, CLI %s" % (light, cli_light))
+mirrored = np.ascontiguousarray(photo[:, ::-1])
+moved = model.transfer(photo, mirrored)
+check(np.array_equal(moved, model.relight(photo, light=model.estimate_light(mirrored))),
+      "transfer is not relight under the reference's estimated light")
+
+# decompose and align
+albedo, shading, normal, dlight = model.decompose(photo)
+s = model.size
+check(albedo.shape == (s, s, 3) and shading.shape == (s, s, 1) and normal.shape == (s, s, 3), "decompose shapes")
+check(albedo.min() >= 0 and albedo.max() <= 1 and shading.min() >= 0, "albedo or shading out of range")
+check(np.allclose(np.linalg.norm(normal, axis=2), 1, atol=1e-4), "normals are not unit vectors")
+check(np.array_equal(dlight, light), "decompose's light differs from estimate_light")
+faces = hdnet.align(photo, size=128)
+check(len(faces) == 1 and faces[0].texture.shape == (128, 128, 3) and faces[0].landmarks.shape == (468, 3),
+      "align: %d faces" % len(faces))
+a2, s2, n2, l2 = model.decompose(hdnet.align(photo, size=256)[0].texture, aligned=True)
+check(np.array_equal(a2, albedo) and np.array_equal(l2, dlight), "decompose(aligned=True) of the texture differs")
+tex = faces[0].texture
+check(np.array_equal(model.relight(tex, preset=1, aligned=True), model.relight(tex, light=hdnet.light_preset(1), aligned=True)),
+      "aligned relight: preset= and light= differ")
+
+# errors carry the library's reason
+def raises(exc, text, f, *a, **k):
+    try:
+        f(*a, **k)
+    except exc as e:
+        check(text in str(e), "error '%s' does not say '%s'" % (e, text))
+        return
+    check(False, "%s did not raise %s" % (f.__name__, exc.__name__))
+
+
+raises(hdnet.Error, "missing.safetensors", hdnet.Model, "missing.safetensors")
+raises(hdnet.Error, "no face found", hdnet.align, np.zeros((200, 160, 3), np.uint8))
+raises(hdnet.Error, "no face found", model.relight, np.zeros((200, 160, 3), np.float32), preset=0)
+raises(ValueError, "exactly one", model.relight, photo)
+raises(ValueError, "H x W x 3", model.relight, np.zeros((4, 4, 5), np.float32), preset=0)
+raises(TypeError, "uint8 or float32", model.relight, np.zeros((4, 4, 3), np.float64), preset=0)
+raises(hdnet.Error, "0..6", hdnet.light_preset, 9)
+
+# the GIL is released during a call: a Python thread keeps counting
+count, stop = [0], [False]
+
+
+def counter():
+    while not stop[0]:
+        count[0] += 1
+
+
+t = threading.Thread(target=counter)
+t.start()
+time.sleep(0.05)
+before = count[0]
+model.relight(photo, preset=4)
+during = count[0] - before
+stop[0] = True
+t.join()
+check(during > 1000, "a Python thread counted only %d during a call: the GIL was held" % during)
+
+# two threads sharing the model get the serial results
+serial = [model.relight(photo, preset=k) for k in (3, 5)]
+out = [None, None]
+threads = [threading.Thread(target=lambda i=i, k=k: out.__setitem__(i, model.relight(photo, preset=k)))
+           for i, k in enumerate((3, 5))]
+for th in threads:
+    th.start()
+for th in threads:
+    th.join()
+check(all(np.array_equal(out[i], serial[i]) for i in range(2)), "threads sharing a model differ from serial calls")
+
+hdnet.imwrite("relit.png", relit)
+err = np.abs(hdnet.imread("relit.png") - relit).max()
+check(err <= 1 / 255 + 1e-6, "imwrite/imread PNG round trip: error %g" % err)
+print("test_python: %s, relight/delight/transfer/estimate-light as the CLI, counted %d during a call, %s" %
+      (hdnet.version(), during, "all checks passed" if not failures else "%d FAILED" % failures))
+sys.exit(1 if failures else 0)
