@@ -95,7 +95,9 @@ typedef struct hd_image {
 hd_status hd_image_alloc(hd_image *img, int width, int height, int channels);
 void hd_image_free(hd_image *img);
 /* Reads PNG (8/16 bit gray, gray+alpha, RGB, RGBA, palette), JPEG or PFM, chosen by the file's
- * magic bytes. Channels as stored (palette expands to RGB or RGBA). */
+ * magic bytes. Channels as stored (palette expands to RGB or RGBA). A JPEG is turned upright by
+ * its EXIF orientation (tag 0x0112: mirrored and rotated as the tag says it is to be shown; 5-8
+ * swap width and height), so every caller sees the photo as a viewer shows it. */
 hd_status hd_image_read(const char *path, hd_image *img);
 /* Reads and converts to `channels` (1: luma 0.299/0.587/0.114, 3: RGB with alpha dropped and
  * gray replicated). */
@@ -115,8 +117,21 @@ typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1, HD_PNG_STORE =
 hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
 hd_status hd_image_write_pfm(const char *path, const hd_image *img);
-/* Writes exact float32 PFM when path ends in ".pfm", else an 8-bit PNG. */
+/* The formats images are written in. */
+typedef enum hd_image_format {
+    HD_FORMAT_PNG = 0, /* 8 bits per channel, 1-4 channels, values clamped to [0, 1] */
+    HD_FORMAT_JPEG,    /* 8-bit gray or RGB (alpha dropped), at a quality 1..100 (0: 95) */
+    HD_FORMAT_PFM      /* exact float32, 1 or 3 channels */
+} hd_image_format;
+/* The format a path's extension names: .png, .jpg / .jpeg, .pfm (any case); anything else is
+ * HD_ERR_ARG naming the path (never a PNG under another name). */
+hd_status hd_image_format_of(const char *path, hd_image_format *format);
+/* Writes img in the format of path's extension (hd_image_format_of), atomically; quality is the
+ * JPEG quality (1..100, 0 for the default 95), ignored otherwise. */
+hd_status hd_image_write(const char *path, const hd_image *img, int quality);
+/* hd_image_write(path, img, 0): PNG, JPEG or PFM by extension. */
 hd_status hd_image_write_picture(const char *path, const hd_image *img);
+
 /* Resizes to width x height: area filter when shrinking, bilinear when enlarging (per axis). */
 hd_status hd_image_resize(const hd_image *src, int width, int height, hd_image *dst);
 
@@ -127,9 +142,19 @@ typedef struct hd_image_info {
     int channels;       /* as stored (palette: 3 or 4 after expansion) */
     int bits;           /* bits per sample in the file: 1, 2, 4, 8 or 16; 32 for PFM */
     int palette;        /* 1 for a palette PNG */
+    int orientation;    /* the EXIF orientation applied (JPEG; 1: none), width and height after it */
 } hd_image_info;
 /* hd_image_read that also describes the file; info may be NULL. */
 hd_status hd_image_read_info(const char *path, hd_image *img, hd_image_info *info);
+/* Images in memory, for servers and bindings that never touch files. hd_image_decode reads a PNG,
+ * JPEG or PFM held in data[0..size) exactly as hd_image_read_info reads a file (magic bytes, EXIF
+ * orientation, the same checks; errors say "<memory>"); info may be NULL. hd_image_encode writes
+ * img in `format` into a new buffer *data of *size bytes (free it with hd_buffer_free), the same
+ * bytes hd_image_write would put in a file. */
+hd_status hd_image_decode(const void *data, size_t size, hd_image *img, hd_image_info *info);
+hd_status hd_image_encode(const hd_image *img, hd_image_format format, int quality, unsigned char **data,
+                          size_t *size);
+void hd_buffer_free(void *data);
 
 /* Normal maps: rgb = (n + 1) / 2 in files. Decoding renormalises to unit length and sets the
  * mask to 0 where the stored vector is (near) zero; `mask` may be NULL. */
@@ -306,6 +331,14 @@ hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image 
 /* The light the model estimates for the best-scoring face of a photo (its aligned texture). */
 hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
                                   float light[HD_SH_COEFFS], int *nfaces);
+/* The decomposition (at the model's size, in the aligned texture space) of the best-scoring face
+ * of a photo; face (may be NULL) receives that face (free with hd_aligned_face_free). */
+hd_status hd_decompose_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_decomposition *d,
+                             struct hd_aligned_face *face);
+/* Every face of photo relit under the light estimated for the best face of reference (a photo):
+ * hd_estimate_light_photo then hd_relight_photo, as `hdnet transfer` does with photos. */
+hd_status hd_transfer_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_image *reference,
+                            hd_brightness brightness, hd_image *out, int *nfaces);
 
 /* Contact sheets: a grid of square cells separated by plain borders, written as an 8-bit RGB PNG.
  * Each picture is resized to the cell (area down, bilinear up). */

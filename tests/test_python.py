@@ -3,7 +3,8 @@ shipped model on the bundled photo: relight/delight/transfer/estimate-light equa
 exactly; uint8 and float32 inputs agree; light=, preset= and direction= agree; decompose's maps have
 the documented shapes and ranges; errors raise hdnet.Error with the library's message; calls release
 the GIL (a Python thread keeps counting during one) and two threads sharing the model get the
-serial results. Run by tests/python.sh: python3 test_python.py ROOT HDNET (in a scratch folder)."""
+serial results; a JPEG stored rotated with an EXIF orientation tag is relit upright, by the module
+and by the tool alike; an unknown output extension is an error. Run by tests/python.sh: python3 test_python.py ROOT HDNET (in a scratch folder)."""
 import os
 import subprocess
 import sys
@@ -95,6 +96,8 @@ raises(ValueError, "exactly one", model.relight, photo)
 raises(ValueError, "H x W x 3", model.relight, np.zeros((4, 4, 5), np.float32), preset=0)
 raises(TypeError, "uint8 or float32", model.relight, np.zeros((4, 4, 3), np.float64), preset=0)
 raises(hdnet.Error, "0..6", hdnet.light_preset, 9)
+raises(hdnet.Error, "out.tif", hdnet.imwrite, "out.tif", photo)
+check(not os.path.exists("out.tif"), "a failed write left out.tif")
 
 # the GIL is released during a call: a Python thread keeps counting
 count, stop = [0], [False]
@@ -125,6 +128,28 @@ for th in threads:
 for th in threads:
     th.join()
 check(all(np.array_equal(out[i], serial[i]) for i in range(2)), "threads sharing a model differ from serial calls")
+
+# EXIF orientation end to end: the photo stored turned a quarter anticlockwise, tagged 6 ("turn
+# 90 degrees clockwise to show"), is found, relit and written upright, as the upright photo is.
+def with_orientation(jpeg, o):
+    tiff = b"II*\x00" + (8).to_bytes(4, "little") + (1).to_bytes(2, "little") + \
+        (0x0112).to_bytes(2, "little") + (3).to_bytes(2, "little") + (1).to_bytes(4, "little") + \
+        o.to_bytes(2, "little") + b"\x00\x00" + (0).to_bytes(4, "little")
+    seg = b"Exif\x00\x00" + tiff
+    return jpeg[:2] + b"\xff\xe1" + (len(seg) + 2).to_bytes(2, "big") + seg + jpeg[2:]
+
+
+hdnet.imwrite("upright.jpg", photo)
+hdnet.imwrite("stored.jpg", np.ascontiguousarray(np.rot90(photo, 1)))  # turned anticlockwise
+open("tagged.jpg", "wb").write(with_orientation(open("stored.jpg", "rb").read(), 6))
+upright = hdnet.imread("upright.jpg")
+shown = hdnet.imread("tagged.jpg")
+check(shown.shape == upright.shape and np.abs(shown - upright).mean() < 0.01, "the tagged JPEG is not read upright")
+r_up, r_tag = model.relight(upright, preset=2), model.relight(shown, preset=2)
+diff = np.abs(r_up - r_tag).mean()
+check(r_tag.shape == upright.shape and diff < 0.01, "relit tagged photo differs from the upright one by %.4f" % diff)
+cli("relight", "tagged.jpg", "--preset", "2", "-o", "cli_tagged.pfm")
+check(np.array_equal(hdnet.imread("cli_tagged.pfm"), r_tag), "hdnet relight of the tagged JPEG differs from the module's")
 
 hdnet.imwrite("relit.png", relit)
 err = np.abs(hdnet.imread("relit.png") - relit).max()

@@ -106,7 +106,7 @@ int cmd_blend(int argc, char **argv)
         }
         if (hd_poisson_blend(&source, &mask, ox, oy, tolerance, &target, &rep)) goto done;
     }
-    if (hd_image_write_png(out_path, &target, 8)) goto done;
+    if (hd_image_write_picture(out_path, &target)) goto done; /* PNG, JPEG or PFM by extension */
     if (!quiet) {
         printf("blended %d pixels x %d channels: CG iterations", rep.unknowns, rep.channels);
         for (int c = 0; c < rep.channels && c < 4; c++) printf(" %d", rep.iterations[c]);

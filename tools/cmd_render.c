@@ -84,7 +84,7 @@ int cmd_render(int argc, char **argv)
     for (int c = 0; c < 3; c++)
         for (size_t p = 0; p < npix; p++) image.data[c * npix + p] = albedo.data[c * npix + p] * shading.data[p];
 
-    hd_status st = ends_with_pfm(out) ? hd_image_write_pfm(out, &image) : hd_image_write_png(out, &image, 8);
+    hd_status st = hd_image_write_picture(out, &image); /* PNG, JPEG or PFM by extension */
     if (st == HD_OK && shading_path) {
         if (ends_with_pfm(shading_path)) {
             st = hd_image_write_pfm(shading_path, &shading);

@@ -97,12 +97,15 @@ _aligner_free = _sig("hd_aligner_free", None, ctypes.c_void_p)
 _aligner_run = _sig("hd_aligner_run", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_P(_AlignedFace)),
                     _P(ctypes.c_int))
 _aligned_faces_free = _sig("hd_aligned_faces_free", None, _P(_AlignedFace), ctypes.c_int)
-_photo_texture_size = _sig("hd_photo_texture_size", ctypes.c_int, ctypes.c_void_p)
 _relight_face = _sig("hd_relight_face", _st, ctypes.c_void_p, _img_p, _img_p, _light_t, ctypes.c_int, _img_p)
 _delight_face = _sig("hd_delight_face", _st, ctypes.c_void_p, _img_p, _img_p, _img_p)
 _estimate_light = _sig("hd_estimate_light", _st, ctypes.c_void_p, _img_p, _light_t)
 _relight_photo = _sig("hd_relight_photo", _st, ctypes.c_void_p, ctypes.c_void_p, _img_p, _P(_light_t), ctypes.c_int,
                       ctypes.c_int, _img_p, _img_p, _P(ctypes.c_int))
+_decompose_photo = _sig("hd_decompose_photo", _st, ctypes.c_void_p, ctypes.c_void_p, _img_p, _P(_Decomposition),
+                        ctypes.c_void_p)
+_transfer_photo = _sig("hd_transfer_photo", _st, ctypes.c_void_p, ctypes.c_void_p, _img_p, _img_p, ctypes.c_int,
+                       _img_p, _P(ctypes.c_int))
 _estimate_light_photo = _sig("hd_estimate_light_photo", _st, ctypes.c_void_p, ctypes.c_void_p, _img_p, _light_t,
                              _P(ctypes.c_int))
 _light_from_direction = _sig("hd_light_from_direction", None, ctypes.c_float, ctypes.c_float, ctypes.c_float,
@@ -273,18 +276,15 @@ class Model:
             _model_free(self._p)
             self._p = None
 
-    def _texture(self, img, aligned):
-        """The aligned texture to decompose: the image itself, or the best face of the photo."""
-        if aligned:
-            return img
-        return _aligner().run(img, _photo_texture_size(self._p))[0].texture
-
     def decompose(self, img, aligned=False):
         """(albedo H x W x 3, shading H x W x 1, normal H x W x 3, light (9,)) at the model's size,
         of an aligned texture or of the best face of a photo."""
-        tex, keep = _to_image(self._texture(img, aligned))
+        im, keep = _to_image(img)
         d = _Decomposition()
-        _check(_model_decompose(self._p, ctypes.byref(tex), 1, ctypes.byref(d)))
+        if aligned:
+            _check(_model_decompose(self._p, ctypes.byref(im), 1, ctypes.byref(d)))
+        else:
+            _check(_decompose_photo(self._p, _aligner()._p, ctypes.byref(im), ctypes.byref(d), None))
         try:
             return (_from_image(d.albedo), _from_image(d.shading), _from_image(d.normal),
                     np.array(d.light, dtype=np.float32))
@@ -331,4 +331,12 @@ class Model:
 
     def transfer(self, img, reference, keep_brightness=True, aligned=False):
         """img relit under the light estimated for the face in `reference` (same kind as img)."""
-        return self._relight_under(img, self.estimate_light(reference, aligned), keep_brightness, aligned)
+        if aligned:
+            return self._relight_under(img, self.estimate_light(reference, True), keep_brightness, True)
+        im, keep = _to_image(img)
+        ref, keep_ref = _to_image(reference, "reference")
+        out = _Image()
+        mode = HD_BRIGHTNESS_KEEP if keep_brightness else HD_BRIGHTNESS_FREE
+        _check(_transfer_photo(self._p, _aligner()._p, ctypes.byref(im), ctypes.byref(ref), mode, ctypes.byref(out),
+                               None))
+        return _take_image(out)

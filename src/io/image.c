@@ -1,5 +1,6 @@
-/* image.c: the in-memory image (planar float32, data[(c * H + y) * W + x]): allocation, reading
- * by magic bytes, channel conversion and resizing (area filter down, bilinear up, per axis). */
+/* image.c: the in-memory image (planar float32, data[(c * H + y) * W + x]): allocation, channel
+ * conversion and resizing (area filter down, bilinear up, per axis). Reading and writing files and
+ * buffers: image_codec.c. */
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -48,36 +49,6 @@ hd_status hd_image_check_dims(const char *path, long width, long height, int cha
         !hd_mul_size(n, sizeof(float), &n))
         return hd_fail(HD_ERR_RANGE, "%s: image size %ldx%ldx%d overflows", path, width, height, channels);
     return HD_OK;
-}
-
-/* Sniffs the first bytes of path and calls the matching reader. */
-hd_status hd_image_read_info(const char *path, hd_image *img, hd_image_info *info)
-{
-    hd_image_info local;
-    if (!info) info = &local;
-    memset(info, 0, sizeof *info);
-    memset(img, 0, sizeof *img);
-    FILE *f = fopen(path, "rb");
-    if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    unsigned char magic[8];
-    size_t got = fread(magic, 1, sizeof magic, f);
-    int err = ferror(f) ? errno : 0;
-    fclose(f);
-    if (err) return hd_fail(HD_ERR_IO, "%s: cannot read: %s", path, strerror(err));
-    static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    if (got == 0) return hd_fail(HD_ERR_FORMAT, "%s: empty file, not an image", path);
-    if (got >= 8 && memcmp(magic, png_sig, 8) == 0) return hd_image_read_png(path, img, info);
-    if (got >= 3 && magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF)
-        return hd_image_read_jpeg(path, img, info);
-    if (got >= 3 && magic[0] == 'P' && (magic[1] == 'F' || magic[1] == 'f') &&
-        (magic[2] == '\n' || magic[2] == ' ' || magic[2] == '\r' || magic[2] == '\t'))
-        return hd_image_read_pfm(path, img, info);
-    return hd_fail(HD_ERR_FORMAT, "%s: unknown image format (not PNG, JPEG or PFM)", path);
-}
-
-hd_status hd_image_read(const char *path, hd_image *img)
-{
-    return hd_image_read_info(path, img, NULL);
 }
 
 hd_status hd_image_read_as(const char *path, int channels, hd_image *img)
@@ -253,11 +224,4 @@ done:
     }
     *dst = out;
     return HD_OK;
-}
-
-hd_status hd_image_write_picture(const char *path, const hd_image *img)
-{
-    size_t n = strlen(path);
-    if (n > 4 && strcmp(path + n - 4, ".pfm") == 0) return hd_image_write_pfm(path, img);
-    return hd_image_write_png(path, img, 8);
 }

@@ -1,5 +1,5 @@
-/* image_jpeg.c: JPEG reading through libjpeg(-turbo): gray and RGB (YCbCr decoded to RGB); CMYK
- * and other colour spaces are refused. libjpeg's fatal errors come to our error_exit, which
+/* image_jpeg.c: JPEG reading and writing through libjpeg(-turbo): gray and RGB (YCbCr decoded to
+ * RGB), turned upright by the EXIF orientation (exif.c); CMYK and other colour spaces are refused. libjpeg's fatal errors come to our error_exit, which
  * records the message and longjmps back. Its warnings that mean lost image data (a truncated file
  * or a corrupt scan, which libjpeg would otherwise paper over with gray) are errors too, raised at
  * once so that a truncated file claiming a huge size is not decoded to the end; harmless warnings
@@ -51,11 +51,10 @@ static void jpeg_on_message(j_common_ptr cinfo, int level)
     }
 }
 
-hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *info)
+hd_status hd_image_read_jpeg(FILE *f, long long file_size, const char *path, hd_image *img, hd_image_info *info)
 {
+    (void)file_size;
     memset(img, 0, sizeof *img);
-    FILE *f = fopen(path, "rb");
-    if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     struct jpeg_decompress_struct cinfo;
     jpeg_context ctx;
     memset(&ctx, 0, sizeof ctx);
@@ -68,13 +67,16 @@ hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *inf
         free(row);
         hd_image_free(img);
         jpeg_destroy_decompress(&cinfo);
-        fclose(f);
         if (st != HD_OK) return st;
         return hd_fail(HD_ERR_FORMAT, "%s: bad JPEG: %s", path, ctx.reason);
     }
     jpeg_create_decompress(&cinfo);
     jpeg_stdio_src(&cinfo, f);
+    jpeg_save_markers(&cinfo, JPEG_APP0 + 1, 0xFFFF);
     jpeg_read_header(&cinfo, TRUE);
+    int orientation = 1;
+    for (jpeg_saved_marker_ptr m = cinfo.marker_list; m && orientation == 1; m = m->next)
+        if (m->marker == JPEG_APP0 + 1) orientation = hd_exif_orientation(m->data, m->data_length);
     if (cinfo.jpeg_color_space == JCS_CMYK || cinfo.jpeg_color_space == JCS_YCCK) {
         st = hd_fail(HD_ERR_FORMAT, "%s: unsupported JPEG: CMYK colour (only gray and RGB are read)", path);
         longjmp(ctx.jump, 1);
@@ -110,14 +112,83 @@ hd_status hd_image_read_jpeg(const char *path, hd_image *img, hd_image_info *inf
                 img->data[c * plane + (size_t)y * width + x] = (float)row[x * channels + c] / 255.0f;
     }
     jpeg_finish_decompress(&cinfo);
+    free(row);
+    row = NULL;
+    jpeg_destroy_decompress(&cinfo);
+    /* Upright, as the EXIF orientation says it is to be shown. */
+    hd_status ost = hd_image_orient(img, orientation);
+    if (ost != HD_OK) {
+        hd_image_free(img);
+        return ost;
+    }
     info->format = "JPEG";
-    info->width = width;
-    info->height = height;
+    info->width = img->width;
+    info->height = img->height;
+    info->orientation = orientation;
     info->channels = channels;
     info->bits = 8;
     info->palette = 0;
-    free(row);
-    jpeg_destroy_decompress(&cinfo);
-    fclose(f);
     return HD_OK;
+}
+
+/* round(clamp(v, 0, 1) * 255), NaN -> 0. */
+static JSAMPLE to_sample(float v)
+{
+    v = v > 0.0f ? v : 0.0f;
+    v = v < 1.0f ? v : 1.0f;
+    return (JSAMPLE)(v * 255.0f + 0.5f);
+}
+
+hd_status hd_image_encode_jpeg(FILE *out, const char *path, const hd_image *img, int quality)
+{
+    if (!img || !img->data || img->channels < 1 || img->channels > 4 || img->width <= 0 || img->height <= 0)
+        return hd_fail(HD_ERR_ARG, "%s: cannot write an image of %d channels as JPEG", path, img ? img->channels : 0);
+    if (quality < 1 || quality > 100) return hd_fail(HD_ERR_ARG, "%s: JPEG quality %d is not in 1..100", path, quality);
+    /* JPEG has no alpha: gray+alpha is written gray, RGBA as RGB. */
+    hd_image conv = {0};
+    const hd_image *src = img;
+    if (img->channels == 2 || img->channels == 4) {
+        hd_status st = hd_image_convert(img, img->channels - 1, &conv);
+        if (st != HD_OK) return st;
+        src = &conv;
+    }
+    int W = src->width, H = src->height, C = src->channels;
+    struct jpeg_compress_struct cinfo;
+    jpeg_context ctx;
+    memset(&ctx, 0, sizeof ctx);
+    cinfo.err = jpeg_std_error(&ctx.mgr);
+    ctx.mgr.error_exit = jpeg_on_error_exit;
+    JSAMPLE *volatile row = NULL;
+    if (setjmp(ctx.jump)) {
+        free(row);
+        jpeg_destroy_compress(&cinfo);
+        hd_image_free(&conv);
+        return hd_fail(HD_ERR_IO, "%s: JPEG write failed: %s", path, ctx.reason);
+    }
+    jpeg_create_compress(&cinfo);
+    jpeg_stdio_dest(&cinfo, out);
+    cinfo.image_width = (JDIMENSION)W;
+    cinfo.image_height = (JDIMENSION)H;
+    cinfo.input_components = C;
+    cinfo.in_color_space = C == 1 ? JCS_GRAYSCALE : JCS_RGB;
+    jpeg_set_defaults(&cinfo);
+    jpeg_set_quality(&cinfo, quality, TRUE);
+    if (!(row = malloc((size_t)W * C))) {
+        snprintf(ctx.reason, sizeof ctx.reason, "out of memory");
+        longjmp(ctx.jump, 1);
+    }
+    jpeg_start_compress(&cinfo, TRUE);
+    size_t plane = (size_t)W * H;
+    while (cinfo.next_scanline < cinfo.image_height) {
+        size_t y = cinfo.next_scanline;
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < C; c++) row[(size_t)x * C + c] = to_sample(src->data[c * plane + y * W + x]);
+        JSAMPROW rows[1] = {row};
+        jpeg_write_scanlines(&cinfo, rows, 1);
+    }
+    jpeg_finish_compress(&cinfo);
+    jpeg_destroy_compress(&cinfo);
+    free(row);
+    hd_image_free(&conv);
+    return ferror(out) ? hd_fail(HD_ERR_IO, "%s: JPEG write failed", path) : HD_OK;
 }

@@ -55,11 +55,10 @@ static int host_little_endian(void)
     return *(const unsigned char *)&one == 1;
 }
 
-hd_status hd_image_read_pfm(const char *path, hd_image *img, hd_image_info *info)
+hd_status hd_image_read_pfm(FILE *f, long long file_size, const char *path, hd_image *img, hd_image_info *info)
 {
+    (void)file_size;
     memset(img, 0, sizeof *img);
-    FILE *f = fopen(path, "rb");
-    if (!f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     char magic[PFM_TOKEN_MAX], ws[PFM_TOKEN_MAX], hs[PFM_TOKEN_MAX], ss[PFM_TOKEN_MAX];
     int after = 0;
     hd_status st = HD_OK;
@@ -136,12 +135,11 @@ hd_status hd_image_read_pfm(const char *path, hd_image *img, hd_image_info *info
     info->palette = 0;
 done:
     free(buf);
-    fclose(f);
     if (st != HD_OK) hd_image_free(img);
     return st;
 }
 
-hd_status hd_image_write_pfm(const char *path, const hd_image *img)
+hd_status hd_image_encode_pfm(FILE *out, const char *path, const hd_image *img)
 {
     if (!img || !img->data || (img->channels != 1 && img->channels != 3) || img->width <= 0 ||
         img->height <= 0)
@@ -150,14 +148,8 @@ hd_status hd_image_write_pfm(const char *path, const hd_image *img)
     size_t row_count = (size_t)width * channels, plane = (size_t)width * height;
     uint32_t *row = hd_malloc(row_count * sizeof(uint32_t));
     if (!row) return HD_ERR_NOMEM;
-    hd_atomic_file af;
-    hd_status st = hd_atomic_open(&af, path);
-    if (st != HD_OK) {
-        free(row);
-        return st;
-    }
     /* Little-endian, written byte by byte through the integer representation. */
-    fprintf(af.f, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", width, height);
+    fprintf(out, "%s\n%d %d\n-1.0\n", channels == 3 ? "PF" : "Pf", width, height);
     for (int r = 0; r < height; r++) {
         int y = height - 1 - r;
         unsigned char *bytes = (unsigned char *)row;
@@ -170,8 +162,20 @@ hd_status hd_image_write_pfm(const char *path, const hd_image *img)
             bytes[4 * k + 2] = (unsigned char)(u >> 16);
             bytes[4 * k + 3] = (unsigned char)(u >> 24);
         }
-        fwrite(row, 4, row_count, af.f);
+        fwrite(row, 4, row_count, out);
     }
     free(row);
+    return ferror(out) ? hd_fail(HD_ERR_IO, "%s: PFM write failed", path) : HD_OK;
+}
+
+hd_status hd_image_write_pfm(const char *path, const hd_image *img)
+{
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st != HD_OK) return st;
+    if ((st = hd_image_encode_pfm(af.f, path, img)) != HD_OK) {
+        hd_atomic_abort(&af);
+        return st;
+    }
     return hd_atomic_commit(&af);
 }

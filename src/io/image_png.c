@@ -8,7 +8,6 @@
 #include <setjmp.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <zlib.h>
 #include "core/core.h"
 #include "io/image_io.h"
@@ -50,19 +49,15 @@ static float png_sample(const png_byte *row, size_t k, int bits)
 
 /* Reads path into img. All resources touched after setjmp live in `volatile` locals or in img,
  * so the longjmp path can release them. */
-hd_status hd_image_read_png(const char *path, hd_image *img, hd_image_info *info)
+hd_status hd_image_read_png(FILE *f, long long file_size, const char *path, hd_image *img, hd_image_info *info)
 {
     memset(img, 0, sizeof *img);
     png_context ctx = {0};
-    ctx.f = fopen(path, "rb");
-    if (!ctx.f) return hd_fail(HD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat sb;
-    long long file_size = fstat(fileno(ctx.f), &sb) == 0 ? (long long)sb.st_size : -1;
+    ctx.f = f;
     png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &ctx, png_on_error, png_on_warning);
     png_infop pinfo = png ? png_create_info_struct(png) : NULL;
     if (!png || !pinfo) {
         png_destroy_read_struct(&png, NULL, NULL);
-        fclose(ctx.f);
         return hd_fail(HD_ERR_NOMEM, "%s: out of memory starting libpng", path);
     }
     png_bytep volatile rows_buf = NULL;
@@ -73,7 +68,6 @@ hd_status hd_image_read_png(const char *path, hd_image *img, hd_image_info *info
         free(row_ptrs);
         hd_image_free(img);
         png_destroy_read_struct(&png, &pinfo, NULL);
-        fclose(ctx.f);
         if (st != HD_OK) return st;
         return hd_fail(HD_ERR_FORMAT, "%s: bad PNG: %s", path, ctx.reason);
     }
@@ -141,7 +135,6 @@ hd_status hd_image_read_png(const char *path, hd_image *img, hd_image_info *info
     free(rows_buf);
     free(row_ptrs);
     png_destroy_read_struct(&png, &pinfo, NULL);
-    fclose(ctx.f);
     return HD_OK;
 }
 
@@ -158,7 +151,7 @@ hd_status hd_image_write_png(const char *path, const hd_image *img, int bits)
     return hd_image_write_png_effort(path, img, bits, HD_PNG_COMPACT);
 }
 
-hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort)
+hd_status hd_image_encode_png(FILE *out, const char *path, const hd_image *img, int bits, hd_png_effort effort)
 {
     if (!img || !img->data || img->channels < 1 || img->channels > 4 || img->width <= 0 ||
         img->height <= 0)
@@ -174,28 +167,20 @@ hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int b
     size_t rowbytes = (size_t)width * channels * (bits / 8);
     png_bytep row = hd_malloc(rowbytes);
     if (!row) return HD_ERR_NOMEM;
-    hd_atomic_file af;
-    hd_status st = hd_atomic_open(&af, path);
-    if (st != HD_OK) {
-        free(row);
-        return st;
-    }
     png_context ctx = {0};
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ctx, png_on_error, png_on_warning);
     png_infop pinfo = png ? png_create_info_struct(png) : NULL;
     if (!png || !pinfo) {
         png_destroy_write_struct(&png, NULL);
-        hd_atomic_abort(&af);
         free(row);
         return hd_fail(HD_ERR_NOMEM, "%s: out of memory starting libpng", path);
     }
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &pinfo);
-        hd_atomic_abort(&af);
         free(row);
         return hd_fail(HD_ERR_IO, "%s: PNG write failed: %s", path, ctx.reason);
     }
-    png_init_io(png, af.f);
+    png_init_io(png, out);
     png_set_IHDR(png, pinfo, (png_uint_32)width, (png_uint_32)height, bits, color_types[channels],
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     if (effort == HD_PNG_FAST) {
@@ -238,5 +223,17 @@ hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int b
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &pinfo);
     free(row);
+    return HD_OK;
+}
+
+hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort)
+{
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st != HD_OK) return st;
+    if ((st = hd_image_encode_png(af.f, path, img, bits, effort)) != HD_OK) {
+        hd_atomic_abort(&af);
+        return st;
+    }
     return hd_atomic_commit(&af);
 }
