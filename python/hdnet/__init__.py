@@ -152,7 +152,7 @@ def _from_image(img):
     """A library-owned hd_image as an H x W x C float32 numpy array (copied)."""
     n = img.width * img.height * img.channels
     planar = np.ctypeslib.as_array(img.data, shape=(n,)).reshape(img.channels, img.height, img.width)
-    return np.ascontiguousarray(np.transpose(planar, (1, 2, 0)))
+    return np.transpose(planar, (1, 2, 0)).copy()  # always a copy: the library frees its image next
 
 
 def _take_image(img):

@@ -146,7 +146,7 @@ hd_status hd_image_encode_jpeg(FILE *out, const char *path, const hd_image *img,
     if (quality < 1 || quality > 100) return hd_fail(HD_ERR_ARG, "%s: JPEG quality %d is not in 1..100", path, quality);
     /* JPEG has no alpha: gray+alpha is written gray, RGBA as RGB. */
     hd_image conv = {0};
-    const hd_image *src = img;
+    const hd_image *volatile src = img; /* read again after a longjmp */
     if (img->channels == 2 || img->channels == 4) {
         hd_status st = hd_image_convert(img, img->channels - 1, &conv);
         if (st != HD_OK) return st;
