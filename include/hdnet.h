@@ -407,12 +407,41 @@ hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_
 hd_status hd_synth_face_write_effort(const char *dir, const char *name, const hd_synth_face *face,
                                      hd_png_effort effort);
 
+/* Camera effects on a rendered face's image (docs/synthetic-data.md), the ground truth untouched:
+ * a coloured light (image = clamp(A s gain), a warm or cool tint of up to 30 %), defocus blur
+ * (Gaussian, sigma 0.3-1.5 texels, normalised inside the mask), sensor noise (read noise
+ * 0.003-0.02 plus shot noise), the camera's white balance (another tint of up to 30 %) and JPEG
+ * at quality 40-95, in that order; each enabled effect applies with `probability`, its draws from
+ * the image's stream (seed, subject, image), the same whichever effects are enabled. */
+enum {
+    HD_SYNTH_CAMERA_LIGHT_COLOUR = 1,
+    HD_SYNTH_CAMERA_BLUR = 2,
+    HD_SYNTH_CAMERA_NOISE = 4,
+    HD_SYNTH_CAMERA_WHITE_BALANCE = 8,
+    HD_SYNTH_CAMERA_JPEG = 16,
+    HD_SYNTH_CAMERA_ALL = 31
+};
+typedef struct hd_synth_camera {
+    float probability; /* of each enabled effect, [0, 1]; 0: none */
+    unsigned effects;  /* HD_SYNTH_CAMERA_* flags */
+} hd_synth_camera;
+/* What was applied to one image (applied: flags; the parameters of those applied). */
+typedef struct hd_synth_camera_record {
+    unsigned applied;
+    float light_gain[3], blur_sigma, noise_read, noise_shot, wb_gain[3];
+    int jpeg_quality;
+} hd_synth_camera_record;
+/* Applies the effects to face->image after hd_synth_render of the same (subject, image); rec may be NULL. */
+hd_status hd_synth_camera_apply(hd_synth_face *face, const hd_synth_camera *camera, uint64_t seed, int subject,
+                                int image, hd_synth_camera_record *rec);
+
 typedef struct hd_synth_options {
     int subjects, per_subject, size;
     uint64_t seed;
     float pose_jitter_deg;  /* maximum yaw, pitch and roll, degrees (0: frontal) */
     float coarse_error_deg; /* the coarse normals' fit error (hd_synth_render); 0: exact pose, no shape error */
     int png_store;          /* 0: the PNGs at HD_PNG_FAST; 1: HD_PNG_STORE (uncompressed: faster, larger) */
+    hd_synth_camera camera; /* camera effects on the images (probability 0: none) */
 } hd_synth_options;
 /* Called now and then with the number of images written (may be NULL). */
 typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);
@@ -435,6 +464,7 @@ typedef struct hd_eval_sums {
     long normal_n, normal_under[HD_EVAL_THRESHOLDS];
     double albedo_abs, albedo_sq;   /* over pixels x 3 channels */
     long albedo_n;
+    double albedo_si_abs;           /* |k A - A_gt| with each image's best scale k (same count) */
     double recon_abs, recon_sq;
     long recon_n;
     double shading_abs;
@@ -446,13 +476,16 @@ typedef struct hd_eval_row {
     int has_normal, has_albedo, has_recon, has_shading, has_light; /* columns this row fills */
     double normal_mean, normal_std, normal_under[HD_EVAL_THRESHOLDS]; /* degrees; percent */
     double albedo_mae, albedo_rmse, recon_mae, recon_rmse, shading_mae;
+    double albedo_si_mae; /* scale-invariant albedo MAE: each image's albedo times its best scale */
     double light_accuracy; /* percent */
 } hd_eval_row;
 
 /* Each adds the masked pixels of one image (planar maps of npix pixels; mask may be NULL = all).
  * Normals: angle between unit vectors, atan2(|a x b|, a . b) (exact near 0). Albedo and
  * reconstruction: |p - t| and (p - t)^2 per channel (3 channels); the reconstruction is clamped to
- * [0, 1] first, as a picture is. Shading: |p - t|. */
+ * [0, 1] first, as a picture is. Shading: |p - t|. The albedo also adds the scale-invariant error
+ * |k p - t|, k >= 0 the image's scale that minimises it (the weighted median of t / p, weights |p|),
+ * as intrinsic-image benchmarks score an albedo whose overall brightness is free. */
 void hd_eval_add_normals(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
 void hd_eval_add_albedo(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
 void hd_eval_add_recon(hd_eval_sums *sums, const float *pred, const float *input, const float *mask, int npix);

@@ -47,7 +47,7 @@ for d in set/subject_*; do
     done
 done
 expect_saying 0 "coarse normals" "$HDNET" eval set --pred pred --json eval.json
-grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.log ||
+grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.log ||
     { cat out.log >&2; fail "ground truth as a prediction is not a perfect score"; }
 grep -q '"images":	6' eval.json || fail "eval.json lacks the image count"
 grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfect light score"

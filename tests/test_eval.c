@@ -58,6 +58,26 @@ static void test_maps(void)
     CHECK(row.has_albedo && !row.has_normal);
     CHECK_NEAR(row.albedo_mae, 0.6 / 6, 1e-7);
     CHECK_NEAR(row.albedo_rmse, sqrt(0.14 / 6), 1e-7);
+    /* scale-invariant albedo: half the truth scores 0 after its best scale (2), not 0.5 * mean */
+    {
+        float half[9];
+        for (int i = 0; i < 9; i++) half[i] = 0.5f * gt[i];
+        memset(&sums, 0, sizeof sums);
+        hd_eval_add_albedo(&sums, half, gt, mask, 3);
+        memset(&row, 0, sizeof row);
+        hd_eval_row_from_sums(&sums, &row);
+        CHECK_NEAR(row.albedo_mae, 0.5 * (0.5 + 0.5 + 0.5 + 0.2 + 0.5 + 0.5) / 6, 1e-7);
+        CHECK_NEAR(row.albedo_si_mae, 0.0, 1e-7);
+        /* one pixel, pred (1, 1, 1) against (1, 2, 10): sum |k - t| is least at the median k = 2,
+         * leaving (1 + 0 + 8) / 3 where the plain MAE is (0 + 1 + 9) / 3 */
+        float one[3] = {1, 1, 1}, t[3] = {1, 2, 10};
+        memset(&sums, 0, sizeof sums);
+        hd_eval_add_albedo(&sums, one, t, NULL, 1);
+        memset(&row, 0, sizeof row);
+        hd_eval_row_from_sums(&sums, &row);
+        CHECK_NEAR(row.albedo_mae, 10.0 / 3, 1e-6);
+        CHECK_NEAR(row.albedo_si_mae, 3.0, 1e-6);
+    }
     /* reconstruction: clamped to [0, 1] like a picture: 1.5 vs 1 and -0.5 vs 0 cost nothing */
     float rp[6] = {1.5f, 0.5f, -0.5f, 0.5f, 0.5f, 0.5f}, ri[6] = {1.0f, 0.25f, 0.0f, 0.5f, 0.5f, 0.5f};
     memset(&sums, 0, sizeof sums);
@@ -170,7 +190,7 @@ static void use_source_models(void)
 /* The ground truth of a small synthetic set, scored as a prediction. */
 static void test_run(void)
 {
-    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f, 0};
+    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f, 0, {0.0f, 0}};
     if (hd_synth_write_set("set", &o, NULL, NULL) != HD_OK) {
         fprintf(stderr, "synth: %s\n", hd_error());
         test_failures++;
@@ -203,7 +223,7 @@ static void test_run(void)
     const hd_eval_row *p = &rep.rows[0];
     CHECK(p->has_normal && p->has_albedo && p->has_recon && p->has_shading && p->has_light);
     CHECK(p->normal_mean < 1e-3 && p->normal_under[0] == 100.0);
-    CHECK(p->albedo_mae == 0.0 && p->recon_mae == 0.0 && p->shading_mae == 0.0);
+    CHECK(p->albedo_mae == 0.0 && p->albedo_si_mae == 0.0 && p->recon_mae == 0.0 && p->shading_mae == 0.0);
     CHECK(p->light_accuracy == 100.0);
     /* the baselines: coarse normals off by degrees, LS light classified, mean colour off */
     CHECK(rep.rows[1].has_normal && rep.rows[1].normal_mean > 3.0 && !rep.rows[1].has_albedo);

@@ -27,6 +27,7 @@ static void make_pair(hd_pair_batch *b, int pair, unsigned seed)
         float *N = b->coarse_normal + (size_t)slot * 3 * HW;
         b->has_normal[slot] = 1;
         b->has_albedo[slot] = k == 0;
+        b->weight[slot] = 0.6f + 0.3f * (float)pair; /* a domain weight that is not 1 */
         for (int y = 0; y < S; y++)
             for (int x = 0; x < S; x++) {
                 size_t p = (size_t)y * S + x;
@@ -212,6 +213,24 @@ static void test_gradients(void)
         check_gradients(&t, hd_loss_names[k], 0, 1, 1e-3f);
     }
     t.weights = all;
+    /* the domain weight scales every term but L_adv: at weight 0 they vanish, and doubling it
+     * doubles them */
+    hd_step_result r0, r1, r2;
+    float keep = t.batch.weight[0];
+    CHECK(hd_trainer_eval(&t, &r1, HD_EVAL_LOSS) == HD_OK);
+    t.batch.weight[0] = t.batch.weight[1] = 2 * keep;
+    CHECK(hd_trainer_eval(&t, &r2, HD_EVAL_LOSS) == HD_OK);
+    t.batch.weight[0] = t.batch.weight[1] = 0.0f;
+    CHECK(hd_trainer_eval(&t, &r0, HD_EVAL_LOSS) == HD_OK);
+    t.batch.weight[0] = t.batch.weight[1] = keep;
+    for (int k = 0; k < HD_LOSS_TERMS; k++) {
+        if (k == HD_LOSS_ADV) {
+            CHECK(r0.terms[k] == r1.terms[k]);
+            continue;
+        }
+        CHECK(r0.terms[k] == 0.0);
+        CHECK(fabs(r2.terms[k] - 2 * r1.terms[k]) <= 1e-6 * fabs(r1.terms[k]) + 1e-12);
+    }
     check_gradients(&t, "discriminator", 1, 0, 3e-4f);
     hd_trainer_free(&t);
 }
@@ -750,7 +769,7 @@ static void test_albedo_supervised(void)
                 num += m * fabs(t.net.albedo[(b * 3 + c) * HW + p] - t.batch.albedo_gt[(b * 3 + c) * HW + p]);
                 den += m;
             }
-        want += num / den;
+        want += t.batch.weight[b] * num / den; /* the domain weight of make_pair */
     }
     want /= 2; /* pairs */
     CHECK(want > 0.01);

@@ -4,7 +4,8 @@
  * ground truth recovers the ground-truth light, a subject's albedo is the same in all its images,
  * landmarks sit where SPEC section 2 puts them, the coarse normals' modelled fit error (exact at 0,
  * tens of degrees by default, zero-mean, deterministic, touching nothing else), and the FAST PNG
- * effort the set is written with reads back like the default one. */
+ * effort the set is written with reads back like the default one; the camera effects (each present
+ * when enabled, its own signature, deterministic, the ground truth untouched). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -276,7 +277,7 @@ static int files_equal(const char *p, const char *q)
  * satisfy image = albedo x shading within quantisation. */
 static void test_write_set(void)
 {
-    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT, 0};
+    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT, 0, {0.0f, 0}};
     hd_set_threads(1);
     CHECK(hd_synth_write_set("set1", &o, NULL, NULL) == HD_OK);
     hd_set_threads(2);
@@ -351,10 +352,10 @@ static void test_write_set(void)
     CHECK(hd_synth_write_set("set3", &st, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "png_store") != NULL);
     /* bad options are refused with a reason */
-    hd_synth_options z = {0, 1, 32, 1, 0, 0, 0};
+    hd_synth_options z = {0, 1, 32, 1, 0, 0, 0, {0.0f, 0}};
     CHECK(hd_synth_write_set("set3", &z, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "subjects") != NULL);
-    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f, 0};
+    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f, 0, {0.0f, 0}};
     CHECK(hd_synth_write_set("set3", &ce, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "coarse-error") != NULL);
 }
@@ -399,6 +400,106 @@ static void test_png_fast(void)
     hd_image_free(&one);
 }
 
+/* Sum of squared differences between horizontal neighbours inside the mask: blur lowers it, noise
+ * raises it. */
+static double roughness(const hd_image *img, const hd_image *mask)
+{
+    int S = img->width;
+    size_t P = (size_t)S * S;
+    double e = 0;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < S; y++)
+            for (int x = 0; x + 1 < S; x++) {
+                size_t q = (size_t)y * S + x;
+                if (mask->data[q] <= 0.5f || mask->data[q + 1] <= 0.5f) continue;
+                double d = img->data[c * P + q + 1] - img->data[c * P + q];
+                e += d * d;
+            }
+    return e;
+}
+
+/* Mean red over mean blue inside the mask. */
+static double red_blue(const hd_image *img, const hd_image *mask)
+{
+    size_t P = (size_t)img->width * img->height;
+    double r = 0, b = 0;
+    for (size_t q = 0; q < P; q++)
+        if (mask->data[q] > 0.5f) {
+            r += img->data[q];
+            b += img->data[2 * P + q];
+        }
+    return r / b;
+}
+
+static void test_camera(void)
+{
+    const int S = 64;
+    hd_synth *s = NULL;
+    hd_synth_subject *sub = NULL;
+    if (hd_synth_create(S, &s) != HD_OK || hd_synth_subject_make(s, 5, 2, &sub) != HD_OK) {
+        fprintf(stderr, "synth: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    hd_synth_face plain = {0}, f = {0}, g = {0};
+    CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &plain) == HD_OK);
+    /* probability 0: nothing changes */
+    hd_synth_camera off = {0.0f, HD_SYNTH_CAMERA_ALL};
+    CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &f) == HD_OK);
+    CHECK(hd_synth_camera_apply(&f, &off, 5, 2, 1, NULL) == HD_OK);
+    CHECK(same_image(&f.image, &plain.image));
+    double rough0 = roughness(&plain.image, &plain.mask), rb0 = red_blue(&plain.image, &plain.mask);
+    static const unsigned each[] = {HD_SYNTH_CAMERA_LIGHT_COLOUR, HD_SYNTH_CAMERA_BLUR, HD_SYNTH_CAMERA_NOISE,
+                                    HD_SYNTH_CAMERA_WHITE_BALANCE, HD_SYNTH_CAMERA_JPEG, HD_SYNTH_CAMERA_ALL};
+    for (size_t k = 0; k < sizeof each / sizeof each[0]; k++) {
+        hd_synth_camera cam = {1.0f, each[k]};
+        hd_synth_camera_record rec, rec2;
+        CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &f) == HD_OK);
+        CHECK(hd_synth_camera_apply(&f, &cam, 5, 2, 1, &rec) == HD_OK);
+        CHECK(rec.applied == each[k]);
+        CHECK(!same_image(&f.image, &plain.image));
+        /* the ground truth is the scene's */
+        CHECK(same_image(&f.albedo, &plain.albedo) && same_image(&f.shading, &plain.shading) &&
+              same_image(&f.normal_gt, &plain.normal_gt) && same_image(&f.mask, &plain.mask));
+        /* deterministic: the same (seed, subject, image) gives the same bytes */
+        CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &g) == HD_OK);
+        CHECK(hd_synth_camera_apply(&g, &cam, 5, 2, 1, &rec2) == HD_OK);
+        CHECK(same_image(&f.image, &g.image));
+        /* another image of the subject draws other parameters */
+        hd_synth_camera_record rec3;
+        CHECK(hd_synth_render(s, sub, 2, 10.0f, 20.0f, &g) == HD_OK);
+        CHECK(hd_synth_camera_apply(&g, &cam, 5, 2, 2, &rec3) == HD_OK);
+        CHECK(memcmp(&rec, &rec3, sizeof rec) != 0);
+        double rough = roughness(&f.image, &f.mask), rb = red_blue(&f.image, &f.mask);
+        if (each[k] == HD_SYNTH_CAMERA_BLUR) CHECK(rough < 0.8 * rough0 && rec.blur_sigma >= 0.3f);
+        if (each[k] == HD_SYNTH_CAMERA_NOISE) CHECK(rough > rough0);
+        if (each[k] == HD_SYNTH_CAMERA_LIGHT_COLOUR)
+            CHECK(fabs(rb / rb0 - rec.light_gain[0] / rec.light_gain[2]) < 0.05 * rb / rb0);
+        if (each[k] == HD_SYNTH_CAMERA_WHITE_BALANCE) CHECK(fabs(rb / rb0 - 1.0) > 0.005);
+        if (each[k] == HD_SYNTH_CAMERA_JPEG) CHECK(rec.jpeg_quality >= 40 && rec.jpeg_quality <= 95);
+        /* outside the mask the image stays black */
+        size_t P = (size_t)S * S;
+        int dark = 1;
+        for (size_t q = 0; q < P; q++)
+            if (f.mask.data[q] <= 0.0f && (f.image.data[q] != 0 || f.image.data[P + q] != 0 || f.image.data[2 * P + q] != 0))
+                dark = 0;
+        CHECK(dark);
+    }
+    /* the draws of one effect do not depend on which others are enabled */
+    hd_synth_camera one = {1.0f, HD_SYNTH_CAMERA_BLUR}, all = {1.0f, HD_SYNTH_CAMERA_ALL};
+    hd_synth_camera_record r1, r2;
+    CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &f) == HD_OK && hd_synth_camera_apply(&f, &one, 5, 2, 1, &r1) == HD_OK);
+    CHECK(hd_synth_render(s, sub, 1, 10.0f, 20.0f, &f) == HD_OK && hd_synth_camera_apply(&f, &all, 5, 2, 1, &r2) == HD_OK);
+    CHECK(r1.blur_sigma == r2.blur_sigma);
+    hd_synth_camera bad = {1.5f, HD_SYNTH_CAMERA_ALL};
+    CHECK(hd_synth_camera_apply(&f, &bad, 5, 2, 1, NULL) == HD_ERR_RANGE);
+    hd_synth_face_free(&plain);
+    hd_synth_face_free(&f);
+    hd_synth_face_free(&g);
+    hd_synth_subject_free(sub);
+    hd_synth_free(s);
+}
+
 int main(void)
 {
     use_source_models();
@@ -406,5 +507,6 @@ int main(void)
     test_coarse_error();
     test_write_set();
     test_png_fast();
+    test_camera();
     return test_summary("test_synth");
 }

@@ -86,6 +86,35 @@ awk "BEGIN { exit !($(agt gtrun/loss.csv) > 0.01) }" || fail "albedo_gt should b
 [ "$(sed -n 2p gtrun/loss.csv | cut -d, -f7)" != "$(sed -n 2p run/loss.csv | cut -d, -f7)" ] ||
     fail "--light-target gt did not change the light loss"
 expect 2 $H train data -o y --prior-normals nope
+# the scale anchor: a ninth column, on by default, 0 when its weight is 0 (only the total changes)
+head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column: $(head -1 run/loss.csv)"
+expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
+awk -F, 'NR == 2 { exit !($11 > 0) }' run/loss.csv || fail "shading_mean should be on by default"
+[ "$(sed -n 2p noanchor/loss.csv | cut -d, -f3-11)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-11)" ] ||
+    fail "the anchor's weight changed the first step's terms"
+[ "$(sed -n 2p noanchor/loss.csv | cut -d, -f2)" != "$(sed -n 2p run/loss.csv | cut -d, -f2)" ] ||
+    fail "the anchor's weight did not change the total"
+expect 2 $H train data -o y --shading-mean 0
+
+# mixed domains: a second set without ground truth (the images of another synth set, alone);
+# drawn from it only (--real-share 1) the ground-truth term reads nothing, drawn never it does,
+# and --mirror-pairs makes pairs of a single image per subject
+expect 0 $H synth other --subjects 2 --per-subject 1 --size 32 --seed 9 --threads 1
+mkdir -p real/a real/b
+for s in 0 1; do
+    for k in png mask.png normal.png; do cp other/subject_000$s/0000.$k real/$(echo ab | cut -c$((s + 1)))/0000.$k; done
+done
+expect 1 $H train data -o mix $T --iters 2 --real real
+grep -q "no real pairs" err.log || fail "a real set without pairs not reported: $(cat err.log)"
+expect 0 $H train data -o mix $T --iters 3 --every 3 --w-albedo-gt 1 --real real --real-share 1 --mirror-pairs
+awk -F, 'NR > 1 && $10 != 0 { exit 1 }' mix/loss.csv || fail "real pairs read a ground truth: $(cat mix/loss.csv)"
+expect 0 $H train data -o mix0 $T --iters 2 --every 2 --w-albedo-gt 1 --real real --real-share 0 --mirror-pairs
+awk -F, 'NR == 2 { exit !($10 > 0.01) }' mix0/loss.csv || fail "synthetic pairs lost their ground truth"
+expect 0 $H train data -o mix $T --iters 5 --every 3 --w-albedo-gt 1 --real real --real-share 1 --mirror-pairs --resume
+expect 0 $H train data -o mixs $T --iters 5 --every 3 --w-albedo-gt 1 --real real --real-share 1 --mirror-pairs
+[ "$(losses mix/loss.csv)" = "$(losses mixs/loss.csv)" ] || fail "a resumed mixed run differs from a straight one"
+expect 2 $H train data -o y --mirror-pairs
+expect 2 $H train data -o y --real real --real-share 2
 expect 2 $H train data -o y --light-target nope
 
 # bad uses

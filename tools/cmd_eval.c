@@ -18,8 +18,8 @@ static void cell(int has, const char *fmt, double v)
 static void print_table(const hd_eval_report *r)
 {
     printf("%ld images (%ld skipped); lighting classes: k-means, k = %d\n\n", r->images, r->skipped, r->kmeans_k);
-    printf("%-28s %15s %7s %7s %7s | %7s %7s | %7s %7s | %7s | %7s\n", "method", "normal (deg)", "<20%", "<25%",
-           "<30%", "alb MAE", "RMSE", "rec MAE", "RMSE", "sh MAE", "light%");
+    printf("%-28s %15s %7s %7s %7s | %7s %7s %7s | %7s %7s | %7s | %7s\n", "method", "normal (deg)", "<20%", "<25%",
+           "<30%", "alb MAE", "RMSE", "si MAE", "rec MAE", "RMSE", "sh MAE", "light%");
     for (int i = 0; i < r->nrows; i++) {
         const hd_eval_row *w = &r->rows[i];
         printf("%-28s ", w->name);
@@ -29,6 +29,7 @@ static void print_table(const hd_eval_report *r)
         printf("| ");
         cell(w->has_albedo, "%7.4f ", w->albedo_mae);
         cell(w->has_albedo, "%7.4f ", w->albedo_rmse);
+        cell(w->has_albedo, "%7.4f ", w->albedo_si_mae);
         printf("| ");
         cell(w->has_recon, "%7.4f ", w->recon_mae);
         cell(w->has_recon, "%7.4f ", w->recon_rmse);
@@ -54,7 +55,7 @@ int cmd_eval(int argc, char **argv)
     const hd_cmd_spec spec = {
         "eval", "DATA (-m MODEL | --pred DIR) [--json OUT]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
-        "(docs/spec.md section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
+        "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
         "%% under 20/25/30 degrees), albedo MAE/RMSE, reconstruction MAE/RMSE (A*S against the input),\n"
         "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights).\n"

@@ -22,7 +22,8 @@ int cmd_synth(int argc, char **argv)
 {
     int subjects = 0, per_subject = 0, size = 256, seed = 1, threads = 0;
     float jitter = 0.0f, coarse_error = HD_SYNTH_COARSE_ERROR_DEFAULT;
-    const char *png = "store";
+    const char *png = "store", *effects = "all";
+    float camera = 0.0f;
     const hd_opt opts[] = {
         {"subjects", 0, HD_OPT_INT, &subjects, "N", "number of subjects (identities); required"},
         {"per-subject", 0, HD_OPT_INT, &per_subject, "K", "images per subject, each with its own light (and pose); required"},
@@ -34,11 +35,15 @@ int cmd_synth(int argc, char **argv)
         {"png", 0, HD_OPT_STRING, &png, "fast|store",
          "PNG compression: store (default: uncompressed, 1.6 MB an image at 256, ~110 images/s a thread)\n"
          "or fast (zlib: half the disk, ~65 images/s a thread); the pixels are the same"},
+        {"camera", 0, HD_OPT_FLOAT, &camera, "P",
+         "probability of each camera effect per image, 0..1 (default 0: none); YYYY.camera.txt lists those applied"},
+        {"camera-effects", 0, HD_OPT_STRING, &effects, "LIST",
+         "comma-separated: light-colour, blur, noise, white-balance, jpeg, or all (default all)"},
         {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
-        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--threads N]",
+        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--camera P] [--threads N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
         "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh\n"
@@ -69,7 +74,22 @@ int cmd_synth(int argc, char **argv)
     if (threads > 0) hd_set_threads(threads);
     /* Thousands of pictures: each still appears whole (rename), but is not fsynced one by one. */
     hd_set_durable_writes(0);
-    hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter, coarse_error, strcmp(png, "store") == 0};
+    if (!(camera >= 0.0f && camera <= 1.0f)) return hd_usage_error(&spec, "--camera %g outside [0, 1]", camera);
+    unsigned flags = 0;
+    static const struct { const char *name; unsigned flag; } names[] = {
+        {"all", HD_SYNTH_CAMERA_ALL}, {"light-colour", HD_SYNTH_CAMERA_LIGHT_COLOUR}, {"blur", HD_SYNTH_CAMERA_BLUR},
+        {"noise", HD_SYNTH_CAMERA_NOISE}, {"white-balance", HD_SYNTH_CAMERA_WHITE_BALANCE}, {"jpeg", HD_SYNTH_CAMERA_JPEG}};
+    for (const char *p = effects; *p;) {
+        size_t n = strcspn(p, ",");
+        unsigned f = 0;
+        for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
+            if (strlen(names[k].name) == n && strncmp(p, names[k].name, n) == 0) f = names[k].flag;
+        if (!f) return hd_usage_error(&spec, "--camera-effects: unknown effect '%.*s'", (int)n, p);
+        flags |= f;
+        p += n + (p[n] == ',');
+    }
+    hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter, coarse_error, strcmp(png, "store") == 0,
+                          {camera, flags}};
     hd_progress p;
     hd_progress_start(&p, "synth", (long)subjects * per_subject);
     if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return hd_report("synth");

@@ -43,12 +43,12 @@ static int train_failed(hd_status s, const char *out)
 
 int cmd_train(int argc, char **argv)
 {
-    const char *out = NULL, *weights = HD_TRAIN_DEFAULT_WEIGHTS, *init = NULL, *dump = NULL, *prior = "coarse";
-    const char *light_target = "fit";
-    int stage = HD_TRAIN_STAGE_1, iters = HD_TRAIN_DEFAULT_ITERS, batch = 0, size = 0, width = 0, resume = 0, threads = 0;
-    int every = HD_TRAIN_DEFAULT_EVERY, seed = HD_TRAIN_DEFAULT_SEED;
+    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit";
+    int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0;
-    float time_limit = 0, lr = 0;
+    float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
+    const char *real_dir = NULL;
+    int mirror = 0;
     float w[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) w[k] = NAN;
     const hd_opt opts[] = {
@@ -64,7 +64,7 @@ int cmd_train(int argc, char **argv)
         {"time-limit", 0, HD_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
         {"threads", 0, HD_OPT_INT, &threads, "T", "threads (default: all)"},
         {"lr", 0, HD_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
-        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of docs/spec.md section 4 (default gt)"},
+        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
         {"w-rec", 0, HD_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
         {"w-albedo", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
         {"w-smooth", 0, HD_OPT_FLOAT, &w[HD_LOSS_SMOOTH], "X", "weight of L_s (gt 0.1, dpr 0.01)"},
@@ -74,6 +74,15 @@ int cmd_train(int argc, char **argv)
         {"w-adv", 0, HD_OPT_FLOAT, &w[HD_LOSS_ADV], "X", "weight of L_adv (gt 0.001, dpr 0.0001)"},
         {"w-albedo-gt", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO_GT], "X",
          "not the paper's: weight of mean_m|A - A_gt| on sets with NAME.albedo.png (default 0)"},
+        {"w-shading-mean", 0, HD_OPT_FLOAT, &w[HD_LOSS_SHADING_MEAN], "X",
+         "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
+        {"shading-mean", 0, HD_OPT_FLOAT, &shading_mean, "C",
+         "the scale anchor's target mean shading over the face (default 0.8)"},
+        {"real", 0, HD_OPT_STRING, &real_dir, "DIR",
+         "a second set (aligned photos, no ground truth) whose pairs are mixed into every batch"},
+        {"real-share", 0, HD_OPT_FLOAT, &real_share, "F", "probability that a pair comes from --real (default 0.5)"},
+        {"real-weight", 0, HD_OPT_FLOAT, &real_weight, "X", "loss weight of --real pairs, every term but L_adv (default 1)"},
+        {"mirror-pairs", 0, HD_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
         {"prior-normals", 0, HD_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
         {"light-target", 0, HD_OPT_STRING, &light_target, "fit|gt",
@@ -123,7 +132,7 @@ int cmd_train(int argc, char **argv)
     }
     o.data_dir = data;
     o.run_dir = out;
-    o.stage = (hd_train_stage)stage;
+    o.stage = stage;
     o.iters = iters;
     o.lnet_iters = lnet_iters;
     o.batch = batch;
@@ -136,6 +145,15 @@ int cmd_train(int argc, char **argv)
     o.every = every;
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;
+    if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return hd_usage_error(&spec, "--shading-mean must be in (0, 100)");
+    o.shading_mean = shading_mean;
+    if (!(real_share >= 0.0f && real_share <= 1.0f)) return hd_usage_error(&spec, "--real-share must be in [0, 1]");
+    if (!(real_weight >= 0.0f && real_weight < 1e6f)) return hd_usage_error(&spec, "--real-weight must not be negative");
+    if (mirror && !real_dir) return hd_usage_error(&spec, "--mirror-pairs needs --real DIR");
+    o.real_dir = real_dir;
+    o.real_share = real_share;
+    o.real_weight = real_weight;
+    o.mirror_pairs = mirror;
     o.seed = (uint64_t)seed;
     o.init_model = init;
     o.dump_grads = dump;
@@ -171,9 +189,9 @@ int cmd_train(int argc, char **argv)
     }
     const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
     printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f "
-           "albedo_gt %.5f, disc %.5f); %s/checkpoint.safetensors written\n",
+           "albedo_gt %.5f shading_mean %.5f, disc %.5f); %s/checkpoint.safetensors written\n",
            how, r.iteration, r.last.total, r.last.terms[0], r.last.terms[1], r.last.terms[2], r.last.terms[3],
-           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.terms[7], r.last.disc, out);
+           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.terms[7], r.last.terms[8], r.last.disc, out);
     if (r.end == HD_TRAIN_SIGNALLED) {
         fprintf(stderr, "hdnet train: stopped by a signal; continue with --resume\n");
         return HD_EXIT_FAIL;

@@ -51,9 +51,64 @@ static void add_rgb(double *abs_sum, double *sq_sum, long *n, const float *pred,
     }
 }
 
+typedef struct ratio {
+    double r, w;
+} ratio;
+
+static int by_ratio(const void *a, const void *b)
+{
+    double x = ((const ratio *)a)->r, y = ((const ratio *)b)->r;
+    return (x > y) - (x < y);
+}
+
+/* The k >= 0 minimising sum |k p - t| over the masked channels: sum |p| |k - t / p| is minimal at the
+ * weighted median of t / p with weights |p| (terms with p = 0 or not finite do not depend on k).
+ * 1 when no pixel decides it or out of memory. */
+static double best_scale(const float *pred, const float *gt, const float *mask, int npix)
+{
+    const size_t P = (size_t)npix;
+    ratio *v = malloc(3 * P * sizeof *v);
+    if (!v) return 1.0;
+    size_t n = 0;
+    double total = 0;
+    for (int p = 0; p < npix; p++) {
+        if (!on(mask, p)) continue;
+        for (int c = 0; c < 3; c++) {
+            double a = pred[c * P + p], t = gt[c * P + p];
+            if (!(a != 0.0 && isfinite(a) && isfinite(t))) continue;
+            v[n].r = t / a;
+            v[n].w = fabs(a);
+            total += v[n++].w;
+        }
+    }
+    double k = 1.0;
+    if (n > 0) {
+        qsort(v, n, sizeof *v, by_ratio);
+        double acc = 0;
+        for (size_t i = 0; i < n; i++) {
+            acc += v[i].w;
+            if (acc >= 0.5 * total) {
+                k = v[i].r;
+                break;
+            }
+        }
+    }
+    free(v);
+    return k > 0 ? k : 0.0;
+}
+
 void hd_eval_add_albedo(hd_eval_sums *s, const float *pred, const float *gt, const float *mask, int npix)
 {
     add_rgb(&s->albedo_abs, &s->albedo_sq, &s->albedo_n, pred, gt, mask, npix, 0);
+    const size_t P = (size_t)npix;
+    double k = best_scale(pred, gt, mask, npix);
+    for (int p = 0; p < npix; p++) {
+        if (!on(mask, p)) continue;
+        for (int c = 0; c < 3; c++) {
+            double e = fabs(k * pred[c * P + p] - gt[c * P + p]);
+            s->albedo_si_abs += e == e ? e : 1.0; /* NaN: a full miss */
+        }
+    }
 }
 
 void hd_eval_add_recon(hd_eval_sums *s, const float *pred, const float *input, const float *mask, int npix)
@@ -84,6 +139,7 @@ void hd_eval_row_from_sums(const hd_eval_sums *s, hd_eval_row *row)
         row->has_albedo = 1;
         row->albedo_mae = s->albedo_abs / (double)s->albedo_n;
         row->albedo_rmse = sqrt(s->albedo_sq / (double)s->albedo_n);
+        row->albedo_si_mae = s->albedo_si_abs / (double)s->albedo_n;
     }
     if (s->recon_n > 0) {
         row->has_recon = 1;
@@ -343,6 +399,7 @@ static void sums_add(hd_eval_sums *a, const hd_eval_sums *b)
     for (int k = 0; k < HD_EVAL_THRESHOLDS; k++) a->normal_under[k] += b->normal_under[k];
     a->albedo_abs += b->albedo_abs;
     a->albedo_sq += b->albedo_sq;
+    a->albedo_si_abs += b->albedo_si_abs;
     a->albedo_n += b->albedo_n;
     a->recon_abs += b->recon_abs;
     a->recon_sq += b->recon_sq;
@@ -469,6 +526,7 @@ hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *r)
         add_num(o, "normal_under_30_pct", w->has_normal, w->normal_under[2]);
         add_num(o, "albedo_mae", w->has_albedo, w->albedo_mae);
         add_num(o, "albedo_rmse", w->has_albedo, w->albedo_rmse);
+        add_num(o, "albedo_si_mae", w->has_albedo, w->albedo_si_mae);
         add_num(o, "recon_mae", w->has_recon, w->recon_mae);
         add_num(o, "recon_rmse", w->has_recon, w->recon_rmse);
         add_num(o, "shading_mae", w->has_shading, w->shading_mae);

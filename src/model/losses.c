@@ -9,12 +9,13 @@
 
 #define HD_SMOOTH_EPS 0.01f
 
-const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt"};
+const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt",
+                                                    "shading_mean"};
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -35,7 +36,10 @@ hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
     b->has_albedo = hd_calloc(B, 1);
     b->light_gt = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
     b->has_light = hd_calloc(B, 1);
-    if (!b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
+    b->weight = hd_calloc(B, sizeof(float));
+    if (b->weight)
+        for (size_t i = 0; i < B; i++) b->weight[i] = 1.0f;
+    if (!b->weight || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
         !b->light_gt || !b->has_light) {
         hd_pair_batch_free(b);
         return HD_ERR_NOMEM;
@@ -53,6 +57,7 @@ void hd_pair_batch_free(hd_pair_batch *b)
     free(b->has_albedo);
     free(b->light_gt);
     free(b->has_light);
+    free(b->weight);
     memset(b, 0, sizeof *b);
 }
 
@@ -61,6 +66,7 @@ hd_status hd_losses_create(hd_losses *L, hd_net *net)
     memset(L, 0, sizeof *L);
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     L->net = net;
+    L->shading_mean = HD_SHADING_MEAN_DEFAULT;
     L->shade = hd_calloc(B * HW, sizeof(float));
     L->d_shade = hd_calloc(B * HW, sizeof(float));
     L->recon = hd_calloc(B * 3 * HW, sizeof(float));
@@ -159,6 +165,9 @@ static void shade_backward(hd_losses *L)
     }
 }
 
+/* The domain weight of image b (1 without weights). */
+static float wgt(const hd_losses *L, int b) { return L->batch->weight ? L->batch->weight[b] : 1.0f; }
+
 /* L_Irec = mean_m(|I - A*S|), S broadcast over colour. */
 double hd_loss_reconstruction(hd_losses *L, float scale)
 {
@@ -171,8 +180,8 @@ double hd_loss_reconstruction(hd_losses *L, float scale)
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) rec[(size_t)c * HW + p] = A[(size_t)c * HW + p] * S[p];
         if (scale != 0.0f) memset(drec, 0, (size_t)3 * HW * sizeof(float));
-        sum += hd_loss_l1(scale != 0.0f ? drec : NULL, NULL, rec, L->batch->image + (size_t)b * 3 * HW,
-                          L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? drec : NULL, NULL, rec, L->batch->image + (size_t)b * 3 * HW,
+                                      L->batch->mask + (size_t)b * HW, 3, HW, scale * wgt(L, b) / P);
         if (scale == 0.0f) continue;
         /* rec = A * S: dA += drec * S, dS += sum_c drec * A */
         float *dA = net->d_albedo + (size_t)b * 3 * HW, *dS = net->d_shading + (size_t)b * HW;
@@ -195,9 +204,10 @@ double hd_loss_albedo_consistency(hd_losses *L, float scale)
         int i = 2 * p, j = 2 * p + 1;
         const float *mi = L->batch->mask + (size_t)i * HW, *mj = L->batch->mask + (size_t)j * HW;
         for (int q = 0; q < HW; q++) L->weight[q] = mi[q] * mj[q];
-        sum += hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)i * 3 * HW : NULL,
-                          scale != 0.0f ? net->d_albedo + (size_t)j * 3 * HW : NULL, net->albedo + (size_t)i * 3 * HW,
-                          net->albedo + (size_t)j * 3 * HW, L->weight, 3, HW, scale / P);
+        sum += wgt(L, i) * hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)i * 3 * HW : NULL,
+                                      scale != 0.0f ? net->d_albedo + (size_t)j * 3 * HW : NULL,
+                                      net->albedo + (size_t)i * 3 * HW, net->albedo + (size_t)j * 3 * HW, L->weight, 3,
+                                      HW, scale * wgt(L, i) / P);
     }
     return sum / P;
 }
@@ -210,9 +220,37 @@ double hd_loss_albedo_supervised(hd_losses *L, float scale)
     double sum = 0;
     for (int b = 0; b < B; b++) {
         if (!L->batch->has_albedo[b]) continue;
-        sum += hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)b * 3 * HW : NULL, NULL,
-                          net->albedo + (size_t)b * 3 * HW, L->batch->albedo_gt + (size_t)b * 3 * HW,
-                          L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)b * 3 * HW : NULL, NULL,
+                                      net->albedo + (size_t)b * 3 * HW, L->batch->albedo_gt + (size_t)b * 3 * HW,
+                                      L->batch->mask + (size_t)b * HW, 3, HW, scale * wgt(L, b) / P);
+    }
+    return sum / P;
+}
+
+/* The scale anchor: (A k, S / k) scores the same on every paper term but L_a, which prefers k -> 0;
+ * this prior pins the mean shading over the mask, |mean_m S - c| per image, summed over i and j,
+ * mean over pairs. L1, so that its pull is bounded: a squared form turned one spike of the shading
+ * (mean 20) into a gradient 4,000 times its usual size, and the run's softplus saturated for good.
+ * Gradient: dS_p = sign(mean - c) m_p / sum m. */
+double hd_loss_shading_mean(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        const float *S = net->shading + (size_t)b * HW, *m = L->batch->mask + (size_t)b * HW;
+        double ms = 0, mS = 0;
+        for (int p = 0; p < HW; p++) {
+            ms += m[p];
+            mS += (double)m[p] * S[p];
+        }
+        if (ms <= 0) continue;
+        double d = mS / ms - L->shading_mean;
+        sum += wgt(L, b) * fabs(d);
+        if (scale == 0.0f) continue;
+        float g = (float)(scale * wgt(L, b) / P * (double)((d > 0) - (d < 0)) / ms);
+        float *dS = net->d_shading + (size_t)b * HW;
+        for (int p = 0; p < HW; p++) dS[p] += g * m[p];
     }
     return sum / P;
 }
@@ -224,8 +262,9 @@ double hd_loss_shading_smoothness(hd_losses *L, float scale)
     int B = net->B, HW = net->H * net->W, P = B / 2;
     double sum = 0;
     for (int b = 0; b < B; b++)
-        sum += hd_loss_smooth(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
-                              L->batch->mask + (size_t)b * HW, net->H, net->W, HD_SMOOTH_EPS, scale / P);
+        sum += wgt(L, b) * hd_loss_smooth(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL,
+                                          net->shading + (size_t)b * HW, L->batch->mask + (size_t)b * HW, net->H, net->W,
+                                          HD_SMOOTH_EPS, scale * wgt(L, b) / P);
     return sum / P;
 }
 
@@ -237,9 +276,9 @@ double hd_loss_normal_prior(hd_losses *L, float scale)
     double sum = 0;
     for (int b = 0; b < B; b++) {
         if (!L->batch->has_normal[b]) continue;
-        sum += hd_loss_sqdist(scale != 0.0f ? net->d_normal + (size_t)b * 3 * HW : NULL, NULL,
-                              net->normal + (size_t)b * 3 * HW, L->batch->coarse_normal + (size_t)b * 3 * HW,
-                              L->batch->mask + (size_t)b * HW, 3, HW, scale / P);
+        sum += wgt(L, b) * hd_loss_sqdist(scale != 0.0f ? net->d_normal + (size_t)b * 3 * HW : NULL, NULL,
+                                          net->normal + (size_t)b * 3 * HW, L->batch->coarse_normal + (size_t)b * 3 * HW,
+                                          L->batch->mask + (size_t)b * HW, 3, HW, scale * wgt(L, b) / P);
     }
     return sum / P;
 }
@@ -257,9 +296,9 @@ double hd_loss_light(hd_losses *L, float scale)
         for (int k = 0; k < HD_SH_COEFFS; k++) {
             float d = l[k] - t[k];
             s += fabsf(d);
-            if (scale != 0.0f) dl[k] += scale / P / HD_SH_COEFFS * (float)((d > 0) - (d < 0));
+            if (scale != 0.0f) dl[k] += scale * wgt(L, b) / P / HD_SH_COEFFS * (float)((d > 0) - (d < 0));
         }
-        sum += s / HD_SH_COEFFS;
+        sum += wgt(L, b) * s / HD_SH_COEFFS;
     }
     return sum / P;
 }
@@ -271,9 +310,10 @@ double hd_loss_shading_reconstruction(hd_losses *L, float scale)
     int B = net->B, HW = net->H * net->W, P = B / 2;
     double sum = 0;
     for (int b = 0; b < B; b++)
-        sum += hd_loss_l1(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL,
-                          scale != 0.0f ? L->d_shade + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
-                          L->shade + (size_t)b * HW, L->batch->mask + (size_t)b * HW, 1, HW, scale / P);
+        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL,
+                                      scale != 0.0f ? L->d_shade + (size_t)b * HW : NULL, net->shading + (size_t)b * HW,
+                                      L->shade + (size_t)b * HW, L->batch->mask + (size_t)b * HW, 1, HW,
+                                      scale * wgt(L, b) / P);
     if (scale != 0.0f) shade_backward(L);
     return sum / P;
 }
@@ -342,6 +382,7 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
     terms[HD_LOSS_SREC] = hd_loss_shading_reconstruction(L, s[HD_LOSS_SREC]);
     terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
     terms[HD_LOSS_ALBEDO_GT] = hd_loss_albedo_supervised(L, s[HD_LOSS_ALBEDO_GT]);
+    terms[HD_LOSS_SHADING_MEAN] = hd_loss_shading_mean(L, s[HD_LOSS_SHADING_MEAN]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

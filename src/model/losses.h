@@ -12,6 +12,10 @@
 #include "model/hdnet_net.h"
 #include "model/train_data.h"
 
+/* The scale anchor's target mean shading over the face: the median of the synthetic set's
+ * (0.79 over 200 held-out images; docs/training.md). */
+#define HD_SHADING_MEAN_DEFAULT 0.8f
+
 typedef enum hd_loss_term {
     HD_LOSS_REC = 0, /* L_Irec: mean_m |I - A*S| */
     HD_LOSS_ALBEDO,  /* L_a: mean_{m_i m_j} |A_i - A_j| */
@@ -22,10 +26,13 @@ typedef enum hd_loss_term {
     HD_LOSS_ADV,     /* L_adv: softplus(-D(m A s(N, l))) */
     HD_LOSS_ALBEDO_GT, /* not the paper's: mean_m |A - A_gt| where ground truth exists (weight 0 in
                         * both presets; anchors the scale A and S share, see docs/training.md) */
+    HD_LOSS_SHADING_MEAN, /* not the paper's: the scale anchor, |mean_m S - c| per image (weight 1 in
+                           * both presets; docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 
-/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt"): CSV columns, the
+/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt", "shading_mean"): CSV
+ * columns, the
  * --w-NAME options and the dump's loss.NAME tensors. */
 extern const char *const hd_loss_names[HD_LOSS_TERMS];
 
@@ -50,6 +57,7 @@ typedef struct hd_losses {
     float *shade, *d_shade, *recon, *d_recon, *render, *weight;
     float *light_hat; /* (B, 9) l_hat, detached */
     int hold_light_hat; /* gradient checks only: keep light_hat as it is (detached for real) */
+    float shading_mean; /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT unless changed) */
 } hd_losses;
 
 hd_status hd_losses_create(hd_losses *L, hd_net *net);
@@ -67,6 +75,8 @@ double hd_loss_light(hd_losses *L, float scale);
 double hd_loss_shading_reconstruction(hd_losses *L, float scale);
 /* Not the paper's: mean_m |A - A_gt| over the images that have a ground-truth albedo. */
 double hd_loss_albedo_supervised(hd_losses *L, float scale);
+/* Not the paper's, the scale anchor: mean over images of |mean_m S - c|, c = L->shading_mean. */
+double hd_loss_shading_mean(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render

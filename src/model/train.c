@@ -28,6 +28,9 @@ void hd_train_defaults(hd_train_options *o)
     o->lnet_iters = -1;
     o->every = HD_TRAIN_DEFAULT_EVERY;
     o->seed = HD_TRAIN_DEFAULT_SEED;
+    o->shading_mean = HD_SHADING_MEAN_DEFAULT;
+    o->real_share = 0.5f;
+    o->real_weight = 1.0f;
     hd_loss_weights_preset(HD_TRAIN_DEFAULT_WEIGHTS, &o->weights);
 }
 
@@ -73,6 +76,25 @@ static hd_status open_data(const hd_train_options *o, hd_dataset *ds, hd_pair_so
     if (hd_pair_source_count(src) < 1)
         return hd_fail(HD_ERR_ARG, "%s: no pairs to train on (a subject folder needs at least two images%s)", o->data_dir,
                        stage1 ? " with coarse normals" : "");
+    return HD_OK;
+}
+
+/* The second domain (--real): its own coarse normals as N_bar, no ground truth read. */
+static hd_status open_real(const hd_train_options *o, hd_dataset *ds, hd_pair_source *src)
+{
+    hd_status s = hd_dataset_scan(o->real_dir, ds, o->warn);
+    if (s != HD_OK) return s;
+    int stage1 = o->stage == HD_TRAIN_STAGE_1, skipped, first_skipped;
+    if ((s = hd_pair_source_init(src, ds, stage1, 0, &skipped, &first_skipped)) != HD_OK) return s;
+    if (skipped && o->warn) {
+        char msg[600];
+        snprintf(msg, sizeof msg, "stage 1 needs coarse normals: %d real image(s) without NAME.normal.png left out (first: %s)",
+                 skipped, ds->samples[first_skipped].image);
+        o->warn(msg);
+    }
+    if (hd_pair_source_count(src) < 1 && !(o->mirror_pairs && src->use_start[ds->subject_count] > 0))
+        return hd_fail(HD_ERR_ARG, "%s: no real pairs to train on (a subject folder needs two images, or --mirror-pairs)",
+                       o->real_dir);
     return HD_OK;
 }
 
@@ -149,6 +171,7 @@ static hd_status start_trainer(const hd_train_options *o, run_start *rs, hd_trai
     if (s != HD_OK) return s;
     t->red = o->reducer;
     t->weights = o->weights;
+    t->losses.shading_mean = o->shading_mean;
     t->stage = o->stage;
     t->lr = o->lr > 0 ? o->lr : o->stage == HD_TRAIN_STAGE_1 ? HD_TRAIN_DEFAULT_LR_STAGE1 : HD_TRAIN_DEFAULT_LR_STAGE2;
     t->lnet_iters = 0;
@@ -258,8 +281,8 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         return hd_fail(HD_ERR_ARG, "stage must be 1 or 2, not %d", (int)o->stage);
     if (o->iters < 1) return hd_fail(HD_ERR_ARG, "the iteration count must be positive");
     if (o->every < 1) return hd_fail(HD_ERR_ARG, "--every must be positive");
-    hd_dataset ds = {0};
-    hd_pair_source src = {0};
+    hd_dataset ds = {0}, rds = {0};
+    hd_pair_source src = {0}, real = {0};
     run_paths paths = {0};
     run_start rs = {0};
     hd_trainer t = {0};
@@ -268,17 +291,23 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     hd_loader ld = {0};
     hd_status s;
     if ((s = run_paths_make(&paths, o->run_dir)) != HD_OK || (s = open_data(o, &ds, &src)) != HD_OK ||
-        (s = read_start(o, paths.ckpt, &rs)) != HD_OK || (s = start_trainer(o, &rs, &t)) != HD_OK)
+        (o->real_dir && (s = open_real(o, &rds, &real)) != HD_OK) || (s = read_start(o, paths.ckpt, &rs)) != HD_OK || (s = start_trainer(o, &rs, &t)) != HD_OK)
         goto done;
     hd_safetensors_free(&rs.st); /* read once: the trainer holds what it needed */
     int writer = o->reducer.ranks <= 1 || o->reducer.rank == 0; /* rank 0 alone writes the run folder */
     if (writer && ((s = hd_mkdirs(o->run_dir)) != HD_OK || (s = hd_mkdirs(paths.samples)) != HD_OK ||
                    (s = hd_train_log_open(&log, paths.csv, o->resume, t.iteration)) != HD_OK))
         goto done;
-    src.size = rs.cfg.size;
-    src.seed = t.seed;
+    src.size = real.size = rs.cfg.size;
+    src.seed = real.seed = t.seed;
     if ((s = hd_pair_batch_alloc(&next, rs.batch, rs.cfg.size)) != HD_OK) goto done;
     ld.src = &src;
+    if (o->real_dir) {
+        ld.real = &real;
+        ld.real_share = o->real_share;
+        ld.real_weight = o->real_weight;
+        ld.mirror = o->mirror_pairs;
+    }
     ld.batch = &next;
     hd_trainer_share(&t, &ld.first, &ld.count);
     r->iteration = t.iteration;
@@ -294,8 +323,10 @@ done:
     hd_pair_batch_free(&next);
     hd_safetensors_free(&rs.st);
     hd_pair_source_free(&src);
+    hd_pair_source_free(&real);
     hd_trainer_free(&t);
     hd_dataset_free(&ds);
+    hd_dataset_free(&rds);
     run_paths_free(&paths);
     return s;
 }

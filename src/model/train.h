@@ -29,6 +29,11 @@ typedef struct hd_train_options {
     hd_loss_weights weights;
     int prior_normals_gt;  /* N_bar from NAME.normal_gt.png instead of NAME.normal.png (the paper's "-ft") */
     int light_target_gt;   /* l_hat = NAME.light.txt where there is one, instead of the least-squares fit */
+    float shading_mean;    /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT) */
+    const char *real_dir;  /* a second set (aligned photos) mixed into every batch, or NULL */
+    float real_share;      /* probability that a pair is drawn from real_dir (default 0.5) */
+    float real_weight;     /* domain weight of real pairs in every term but L_adv (default 1) */
+    int mirror_pairs;      /* a real pair is, half the time, one photo and its mirror image */
     long every;            /* checkpoint, plot and samples every K iterations */
     uint64_t seed;
     const char *init_model; /* may be NULL */

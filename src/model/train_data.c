@@ -154,14 +154,38 @@ done:
     return s;
 }
 
-/* Fills the batch of iteration it: pair q and flip f of slot p come from an RNG seeded with
- * (seed, it, p) only, so a slot's pair does not depend on which process loads it or on the other
- * slots. A pair that fails to load is reported and replaced by the slot's next draw. Only the slots
- * [L->first, L->first + L->count) are loaded (count 0: all): a rank's share of the batch. */
+/* Draws pair slot p of a batch from src: a random pair of one subject's images (or, with mirror,
+ * one image and its own mirror image: a face is close to symmetric, its light is mirrored) in
+ * random order, flipped together at random. */
+static hd_status load_pair(const hd_pair_source *src, hd_rng *rng, int mirror, hd_pair_batch *batch, int p)
+{
+    long total = src->cum[src->ds->subject_count];
+    int images = src->use_start[src->ds->subject_count];
+    if (mirror && images > 0 && (hd_rng_u32(rng) & 1)) {
+        int a = src->use[hd_rng_u32(rng) % (uint32_t)images], flip = hd_rng_u32(rng) & 1;
+        hd_status s = load_sample(src, a, flip, batch, 2 * p);
+        return s == HD_OK ? load_sample(src, a, !flip, batch, 2 * p + 1) : s;
+    }
+    if (total < 1) return hd_fail(HD_ERR_ARG, "a set without pairs (and no mirror pairs)");
+    long q = (long)(((uint64_t)hd_rng_u32(rng) << 32 | hd_rng_u32(rng)) % (uint64_t)total);
+    int flip = hd_rng_u32(rng) & 1, swap = hd_rng_u32(rng) & 1, a, b;
+    pair_of(src, q, &a, &b);
+    if (swap) {
+        int tmp = a;
+        a = b;
+        b = tmp;
+    }
+    hd_status s = load_sample(src, a, flip, batch, 2 * p);
+    return s == HD_OK ? load_sample(src, b, flip, batch, 2 * p + 1) : s;
+}
+
+/* Fills the batch of iteration it: the domain, pair q and flip f of slot p come from an RNG seeded
+ * with (seed, it, p) only, so a slot's pair does not depend on which process loads it or on the
+ * other slots. A pair that fails to load is reported and replaced by the slot's next draw. Only the
+ * slots [L->first, L->first + L->count) are loaded (count 0: all): a rank's share of the batch. */
 static void load_batch(hd_loader *L)
 {
     const hd_pair_source *src = L->src;
-    long total = src->cum[src->ds->subject_count];
     L->status = HD_OK;
     L->warnings[0] = '\0';
     int end = L->count > 0 ? L->first + L->count : L->batch->pairs;
@@ -170,18 +194,13 @@ static void load_batch(hd_loader *L)
         hd_rng_seed(&rng, src->seed ^ HD_DATA_STREAM, (uint64_t)L->iteration * HD_TRAIN_MAX_PAIRS + (uint64_t)p);
         int tries = 0;
         for (;;) {
-            long q = (long)(((uint64_t)hd_rng_u32(&rng) << 32 | hd_rng_u32(&rng)) % (uint64_t)total);
-            int flip = hd_rng_u32(&rng) & 1, swap = hd_rng_u32(&rng) & 1, a, b;
-            pair_of(src, q, &a, &b);
-            if (swap) {
-                int tmp = a;
-                a = b;
-                b = tmp;
-            }
-            hd_status s = load_sample(src, a, flip, L->batch, 2 * p);
-            if (s == HD_OK) s = load_sample(src, b, flip, L->batch, 2 * p + 1);
+            /* the domain coin only where there are two domains: one-domain runs draw as before */
+            int real = L->real && hd_rng_range(&rng, 0.0f, 1.0f) < L->real_share;
+            const hd_pair_source *from = real ? L->real : src;
+            hd_status s = load_pair(from, &rng, real && L->mirror, L->batch, p);
+            L->batch->weight[2 * p] = L->batch->weight[2 * p + 1] = real ? L->real_weight : 1.0f;
             if (s == HD_OK) break;
-            if (s == HD_ERR_NOMEM || ++tries >= HD_LOAD_RETRIES || (s == HD_ERR_NOTFOUND && src->require_prior)) {
+            if (s == HD_ERR_NOMEM || ++tries >= HD_LOAD_RETRIES || (s == HD_ERR_NOTFOUND && from->require_prior)) {
                 L->status = s;
                 snprintf(L->error, sizeof L->error, "%s", hd_error());
                 return;

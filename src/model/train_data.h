@@ -12,7 +12,7 @@
 /* The most pairs a batch may hold (the data streams of a batch's slots are numbered below it). */
 #define HD_TRAIN_MAX_PAIRS 1024
 
-/* A batch of pairs as the networks see it. */
+/* A batch of pairs as the networks see it (weight may be NULL in a view: all 1). */
 typedef struct hd_pair_batch {
     int pairs, size;
     float *image;         /* (B, 3, HW) */
@@ -23,6 +23,8 @@ typedef struct hd_pair_batch {
     unsigned char *has_albedo; /* (B) */
     float *light_gt;           /* (B, 9) ground-truth light: l_hat where has_light (not the paper's) */
     unsigned char *has_light;  /* (B) */
+    float *weight;             /* (B) domain weight of the image: multiplies its part of every term but
+                                * L_adv (a pair term takes image i's); 1 unless set (mixed batches) */
 } hd_pair_batch;
 
 /* (defined in losses.c, for now) */
@@ -54,6 +56,10 @@ long hd_pair_source_count(const hd_pair_source *src);
 /* Fills a batch in the background. */
 typedef struct hd_loader {
     const hd_pair_source *src;
+    const hd_pair_source *real; /* the second domain (aligned photos, no ground truth), or NULL */
+    float real_share;           /* probability that a pair comes from real */
+    float real_weight;          /* the domain weight of real pairs (synthetic ones: 1) */
+    int mirror;                 /* a real pair is, with probability 1/2, a photo and its mirror image */
     hd_pair_batch *batch;
     long iteration;
     int first, count; /* the slots to fill (count 0: the whole batch) */

@@ -100,7 +100,8 @@ hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
 {
     static const float colours[HD_TRAIN_LOG_COLS][3] = {
         {0.85f, 0.1f, 0.1f}, {0.1f, 0.6f, 0.1f}, {0.1f, 0.3f, 0.9f}, {0.9f, 0.6f, 0.0f}, {0.6f, 0.1f, 0.7f},
-        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.0f, 0.0f, 0.0f}, {0.7f, 0.4f, 0.2f}};
+        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.55f, 0.55f, 0.0f},
+        {0.0f, 0.0f, 0.0f},  {0.7f, 0.4f, 0.2f}};
     const int Wd = 800, Ht = 400, margin = 10;
     hd_image img = {0};
     hd_status s = hd_image_alloc(&img, Wd, Ht, 3);

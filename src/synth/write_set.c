@@ -34,6 +34,24 @@ static void note_error(first_error *fe, hd_status st)
 }
 
 /* Copies img (C channels) resized to cell x cell into the sheet (3 channels) at (x0, y0). */
+/* dir/NAME.camera.txt: the camera effects applied to the image, one per line with its parameters. */
+static hd_status write_camera_record(const char *dir, const char *name, const hd_synth_camera_record *r)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s.camera.txt", dir, name);
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st != HD_OK) return st;
+    if (r->applied & HD_SYNTH_CAMERA_LIGHT_COLOUR)
+        fprintf(af.f, "light_colour %.4f %.4f %.4f\n", r->light_gain[0], r->light_gain[1], r->light_gain[2]);
+    if (r->applied & HD_SYNTH_CAMERA_BLUR) fprintf(af.f, "blur_sigma %.4f\n", r->blur_sigma);
+    if (r->applied & HD_SYNTH_CAMERA_NOISE) fprintf(af.f, "noise %.5f %.6f\n", r->noise_read, r->noise_shot);
+    if (r->applied & HD_SYNTH_CAMERA_WHITE_BALANCE)
+        fprintf(af.f, "white_balance %.4f %.4f %.4f\n", r->wb_gain[0], r->wb_gain[1], r->wb_gain[2]);
+    if (r->applied & HD_SYNTH_CAMERA_JPEG) fprintf(af.f, "jpeg_quality %d\n", r->jpeg_quality);
+    return hd_atomic_commit(&af);
+}
+
 static hd_status paste(hd_image *sheet, const hd_image *img, int cell, int x0, int y0)
 {
     hd_image small = {0}, rgb = {0};
@@ -67,6 +85,7 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
         st = hd_synth_subject_make(s, o->seed, rsub, &sub);
         for (int k = 0; k < imgs && st == HD_OK; k++) {
             st = hd_synth_render(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, &f);
+            if (st == HD_OK) st = hd_synth_camera_apply(&f, &o->camera, o->seed, rsub, k, NULL);
             if (st != HD_OK) break;
             int y0 = rsub * (cell + gap);
             if (k == 0) {
@@ -154,7 +173,10 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 snprintf(dir, sizeof dir, "%s/subject_%04d", out, s0 + j);
                 snprintf(name, sizeof name, "%04d", image);
                 hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg, &f);
+                hd_synth_camera_record rec;
+                if (e == HD_OK) e = hd_synth_camera_apply(&f, &o->camera, o->seed, s0 + j, image, &rec);
                 if (e == HD_OK) e = hd_synth_face_write_effort(dir, name, &f, effort);
+                if (e == HD_OK && rec.applied) e = write_camera_record(dir, name, &rec);
                 if (e != HD_OK) note_error(&fe, e);
                 long now;
 #pragma omp atomic capture
