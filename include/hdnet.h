@@ -576,6 +576,13 @@ typedef struct hd_aligner hd_aligner;
 hd_status hd_aligner_load(hd_aligner **aligner);
 void hd_aligner_free(hd_aligner *aligner);
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
+ * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
+ * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
+ * over the whole photo, which finds faces from about 7 % of its longer side up). */
+#define HD_DETECT_MIN_SCORE 0.75f
+#define HD_DETECT_MIN_FACE 40.0f
+hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
 void hd_aligned_face_free(hd_aligned_face *face);
 void hd_aligned_faces_free(hd_aligned_face *faces, int count);
 

@@ -140,13 +140,15 @@ static hd_status write_landmarks(const char *path, const hd_face_box *faces, con
 int cmd_detect(int argc, char **argv)
 {
     const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
-    float min_score = HD_FACE_MIN_SCORE;
+    float min_score = HD_FACE_MIN_SCORE, min_face = HD_FACE_MIN_SIZE;
     int no_landmarks = 0, zoom_size = 0;
     const hd_opt opts[] = {
         {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
         {"landmarks", 0, HD_OPT_STRING, &landmarks_path, "L.txt",
          "write the landmarks: per face a '# face' line and 468 lines 'x y z'"},
         {"min-score", 0, HD_OPT_FLOAT, &min_score, "S", "detection threshold in (0, 1] (default 0.75)"},
+        {"min-face", 0, HD_OPT_FLOAT, &min_face, "PX",
+         "smallest face to look for, pixels wide (default 40; 0: one pass over the whole photo)"},
         {"no-landmarks", 0, HD_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
         {"draw", 0, HD_OPT_STRING, &draw_text, "LIST",
          "what -o shows, comma-separated from box, keypoints, roi (the crop the face mesh first sees), "
@@ -157,9 +159,10 @@ int cmd_detect(int argc, char **argv)
     };
     const hd_cmd_spec spec = {
         "detect", "IMG [-o annotated.png] [--landmarks L.txt] [options]",
-        "Finds the faces in a photo with MediaPipe's short-range face detector (BlazeFace; faces that\n"
-        "fill a good part of the photo) and, for each, the 468 face-mesh landmarks (the vertex order of\n"
-        "models/canonical_face_model.obj). Prints one line per face (score, box) and its six keypoints.\n"
+        "Finds the faces in a photo with MediaPipe's BlazeFace detector (back-camera model) over an\n"
+        "image pyramid, down to --min-face pixels wide, and, for each, the 468 face-mesh landmarks\n"
+        "(the vertex order of models/canonical_face_model.obj). Prints one line per face (score, box)\n"
+        "and its six keypoints.\n"
         "Photo coordinates: pixels, x right, y down, pixel (i, j) centred at (i + 0.5, j + 0.5).\n"
         "A photo without a face is not an error: it prints 'no face found'.",
         opts, 1, 1};
@@ -173,6 +176,8 @@ int cmd_detect(int argc, char **argv)
         return hd_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
     if (!(min_score > 0.0f && min_score <= 1.0f))
         return hd_usage_error(&spec, "--min-score must be in (0, 1], got %g", (double)min_score);
+    if (!(min_face >= 0.0f && min_face <= (float)HD_IMAGE_MAX_SIDE))
+        return hd_usage_error(&spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)min_face);
     if (zoom_size < 0 || zoom_size > 4096) return hd_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);
     if (no_landmarks && landmarks_path) return hd_usage_error(&spec, "--landmarks needs the face mesh (drop --no-landmarks)");
     if (zoom_size && !out) return hd_usage_error(&spec, "--zoom goes with -o");
@@ -189,7 +194,7 @@ int cmd_detect(int argc, char **argv)
     int count = 0, rc = HD_EXIT_FAIL;
     if (hd_image_read_as(path, 3, &photo) != HD_OK || hd_face_detector_load(NULL, &det) != HD_OK) goto done;
     double t0 = hd_seconds();
-    if (hd_face_detector_run(det, &photo, min_score, &faces, &count) != HD_OK) goto done;
+    if (hd_face_detector_find(det, &photo, min_score, min_face, &faces, &count) != HD_OK) goto done;
     double t_detect = hd_seconds() - t0;
     printf("%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
     if (count == 0) {

@@ -195,6 +195,7 @@ typedef struct align_runner {
 struct hd_aligner {
     pthread_mutex_t lock; /* guards idle */
     align_runner *idle;
+    float min_score, min_face; /* detection settings (hd_aligner_set_detection) */
 };
 
 static void runner_free(align_runner *r)
@@ -226,12 +227,26 @@ hd_status hd_aligner_load(hd_aligner **aligner)
     hd_aligner *a = hd_calloc(1, sizeof *a);
     if (!a) return HD_ERR_NOMEM;
     pthread_mutex_init(&a->lock, NULL);
+    a->min_score = HD_DETECT_MIN_SCORE;
+    a->min_face = HD_DETECT_MIN_FACE;
     hd_status st = runner_load(&a->idle);
     if (st) {
         hd_aligner_free(a);
         return st;
     }
     *aligner = a;
+    return HD_OK;
+}
+
+hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face)
+{
+    if (!(min_score > 0.0f && min_score <= 1.0f))
+        return hd_fail(HD_ERR_ARG, "face detection: the score threshold %g is not in (0, 1]", (double)min_score);
+    if (!(min_face >= 0.0f && min_face <= (float)HD_IMAGE_MAX_SIDE))
+        return hd_fail(HD_ERR_ARG, "face detection: the smallest face %g is not in [0, %d] pixels", (double)min_face,
+                       HD_IMAGE_MAX_SIDE);
+    aligner->min_score = min_score;
+    aligner->min_face = min_face;
     return HD_OK;
 }
 
@@ -247,7 +262,8 @@ void hd_aligner_free(hd_aligner *aligner)
     free(aligner);
 }
 
-static hd_status runner_run(align_runner *runner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+static hd_status runner_run(align_runner *runner, float min_score, float min_face, const hd_image *photo, int size,
+                            hd_aligned_face **faces, int *count);
 
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
 {
@@ -261,7 +277,7 @@ hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, h
     pthread_mutex_unlock(&aligner->lock);
     hd_status st = r ? HD_OK : runner_load(&r);
     if (st) return st;
-    st = runner_run(r, photo, size, faces, count);
+    st = runner_run(r, aligner->min_score, aligner->min_face, photo, size, faces, count);
     pthread_mutex_lock(&aligner->lock);
     r->next = aligner->idle;
     aligner->idle = r;
@@ -281,7 +297,8 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     return st;
 }
 
-static hd_status runner_run(align_runner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
+static hd_status runner_run(align_runner *aligner, float min_score, float min_face, const hd_image *photo, int size,
+                            hd_aligned_face **faces, int *count)
 {
     *faces = NULL;
     *count = 0;
@@ -299,7 +316,7 @@ static hd_status runner_run(align_runner *aligner, const hd_image *photo, int si
     int nboxes = 0, dropped = 0;
     hd_aligned_face *out = NULL;
     float (*landmarks)[3] = NULL;
-    if ((st = hd_face_detector_run(aligner->detector, p3, HD_FACE_MIN_SCORE, &boxes, &nboxes))) goto done;
+    if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
     if (nboxes > 0) {
         out = hd_calloc((size_t)nboxes, sizeof *out);
         landmarks = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));

@@ -1,19 +1,23 @@
-/* face_detect.c: face detection as MediaPipe's short-range face detection graph does it, on the
- * BlazeFace "front" model (TF.js graph, 128 x 128 RGB in [-1, 1]):
- *   1. letterbox: the photo scaled to fit 128 x 128 keeping its aspect ratio, centred, black bars;
+/* face_detect.c: face detection as MediaPipe's BlazeFace graphs do it, on an image pyramid.
+ * The network (TF.js graph, N x N RGB in [-1, 1]; the back model N = 256, the front model 128):
+ *   1. a square window of the photo (level 0: the whole photo letterboxed, centred, black bars;
+ *      finer levels: overlapping tiles, see hd_face_pyramid) sampled to N x N, antialiased;
  *   2. the network: 896 anchors, for each a score logit and 16 regressors (box centre offset, box
- *      size, 6 keypoint offsets, in 128-pixel units);
- *   3. SSD anchors (strides 8, 16, 16, 16; fixed anchor size 1; offset 0.5): 16 x 16 cells with 2
- *      anchors each, then 8 x 8 cells with 6 anchors each;
- *   4. decoding: centre = raw / 128 + anchor, size = raw / 128, keypoint = raw / 128 + anchor
- *      (normalised letterbox coordinates), score = sigmoid(clip(logit, -100, 100));
- *   5. the threshold (0.75), weighted non-maximum suppression (IoU > 0.3: the cluster's boxes and
- *      keypoints averaged with their scores as weights, the best score kept);
- *   6. the letterbox undone: photo = (letterbox pixel - bar offset) / scale.
- * Input range: MediaPipe feeds this model [-1, 1] (its TFLite converter's zero_center); the TF.js
- * port's own code feeds x / 127.5 - 0.5. We feed [-1, 1]: on the bundled photo it scores 0.922,
- * [0, 1] scores 0.895, with the same box within 2 pixels. Keypoints are coarse (one network pixel
- * is max(W, H) / 128 photo pixels); the face mesh refines them. */
+ *      size, 6 keypoint offsets, in network pixels);
+ *   3. SSD anchors (fixed size 1, offset 0.5): 16 x 16 cells with 2 anchors each, then 8 x 8 cells
+ *      with 6 anchors each;
+ *   4. decoding: centre = raw / N + anchor, size = raw / N, keypoint = raw / N + anchor (normalised
+ *      window coordinates), score = sigmoid(clip(logit, -100, 100)); boxes crossing a window edge
+ *      that cuts through the photo are dropped (a neighbour sees that face whole);
+ *   5. the threshold (0.75), then weighted non-maximum suppression over the candidates of every
+ *      window (IoU > 0.3: the cluster's boxes and keypoints averaged with their scores as weights,
+ *      the best score kept);
+ *   6. back to the photo: photo = window origin + normalised coordinate x window side.
+ * Input range: MediaPipe feeds these models [-1, 1] (its TFLite converter's zero_center); the TF.js
+ * port's own code feeds x / 127.5 - 0.5. We feed [-1, 1]: on the bundled photo the front model
+ * scores 0.922, [0, 1] 0.895, with the same box within 2 pixels. Keypoints are coarse (one network
+ * pixel is side / N photo pixels); the face mesh refines them. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,7 +25,16 @@
 #include "graph/tfjs_graph.h"
 #include "align/face_detect.h"
 
-#define DETECT_SIZE 128
+#define MIN_NET_SIZE 64
+#define MAX_NET_SIZE 1024
+/* The smallest face found reliably, as a fraction of the window's side: measured on the bundled
+ * faces (docs/face_detect.md), the front model scores 0.79-0.93 at 0.12 and the back model
+ * 0.84-0.93 at 0.05 (both up to 0.9 of the side). */
+#define FRONT_MIN_FACE 0.13f
+#define BACK_MIN_FACE 0.07f
+#define PYRAMID_OVERLAP 2.6f   /* window overlap in units of the smallest face of the level */
+#define MIN_WINDOW_RATIO 0.5f  /* windows are at least half the network's side (2x enlargement) */
+#define MAX_LEVELS 12
 #define NUM_COORDS 16
 #define SCORE_CLIP 100.0f
 #define MAX_SUPERSAMPLE 16
@@ -37,9 +50,13 @@ static const struct {
 
 struct hd_face_detector {
     hd_tfjs_graph *graph;
+    int size;            /* the network's input side (128 front, 256 back) */
+    float min_face_frac; /* the smallest face it finds, as a fraction of its window's side */
     int nanchors;
-    float *anchors; /* (nanchors, 2): centres in normalised letterbox coordinates */
-    float *input;   /* (128, 128, 3) */
+    float *anchors;      /* (nanchors, 2): centres in normalised window coordinates */
+    float *input;        /* (size, size, 3) */
+    hd_face_box *boxes;  /* candidates of the current photo, all windows */
+    int nboxes, capacity;
 };
 
 /* ------------------------------------------------------------------ sampling */
@@ -108,6 +125,7 @@ void hd_face_detector_free(hd_face_detector *d)
     hd_tfjs_free(d->graph);
     free(d->anchors);
     free(d->input);
+    free(d->boxes);
     free(d);
 }
 
@@ -116,8 +134,8 @@ hd_status hd_face_detector_load(const char *json_path, hd_face_detector **detect
     *detector = NULL;
     char *found = NULL;
     if (!json_path) {
-        found = hd_find_data("face-models/blazeface-front.json");
-        if (!found) return HD_ERR_NOTFOUND;
+        found = hd_find_data(HD_FACE_DETECT_MODEL);
+        if (!found) return hd_fail(HD_ERR_NOTFOUND, "%s: not found on the data search path", HD_FACE_DETECT_MODEL);
         json_path = found;
     }
     hd_face_detector *d = hd_calloc(1, sizeof *d);
@@ -129,15 +147,18 @@ hd_status hd_face_detector_load(const char *json_path, hd_face_detector **detect
     if (st != HD_OK) goto fail;
     int h, w, c;
     hd_tfjs_input_shape(d->graph, &h, &w, &c);
-    if (h != DETECT_SIZE || w != DETECT_SIZE || c != 3) {
-        st = hd_fail(HD_ERR_FORMAT, "%s: input is %dx%dx%d, the detector wants 128x128x3", json_path, h, w, c);
+    if (h != w || h < MIN_NET_SIZE || h > MAX_NET_SIZE || c != 3) {
+        st = hd_fail(HD_ERR_FORMAT, "%s: input is %dx%dx%d, the detector wants a square RGB input of %d to %d pixels",
+                     json_path, h, w, c, MIN_NET_SIZE, MAX_NET_SIZE);
         goto fail;
     }
+    d->size = h;
+    d->min_face_frac = h >= 256 ? BACK_MIN_FACE : FRONT_MIN_FACE;
     /* Anchors: for each head, cells in row order, per_cell anchors per cell, centred in the cell. */
     d->nanchors = 0;
     for (int k = 0; k < 2; k++) d->nanchors += detect_heads[k].grid * detect_heads[k].grid * detect_heads[k].per_cell;
     d->anchors = hd_malloc((size_t)d->nanchors * 2 * sizeof(float));
-    d->input = hd_malloc((size_t)DETECT_SIZE * DETECT_SIZE * 3 * sizeof(float));
+    d->input = hd_malloc((size_t)d->size * d->size * 3 * sizeof(float));
     if (!d->anchors || !d->input) {
         st = HD_ERR_NOMEM;
         goto fail;
@@ -159,7 +180,7 @@ hd_status hd_face_detector_load(const char *json_path, hd_face_detector **detect
         if (!hd_tfjs_output(d->graph, detect_heads[k].scores, &nd, dims) || nd != 3 || dims[1] != n || dims[2] != 1 ||
             !hd_tfjs_output(d->graph, detect_heads[k].boxes, &nd, dims) || nd != 3 || dims[1] != n ||
             dims[2] != NUM_COORDS) {
-            st = hd_fail(HD_ERR_FORMAT, "%s: not the BlazeFace front model: outputs %s (1, %d, 1) and %s (1, %d, %d) expected",
+            st = hd_fail(HD_ERR_FORMAT, "%s: not a BlazeFace model: outputs %s (1, %d, 1) and %s (1, %d, %d) expected",
                          json_path, detect_heads[k].scores, n, detect_heads[k].boxes, n, NUM_COORDS);
             goto fail;
         }
@@ -171,6 +192,13 @@ fail:
     free(found);
     hd_face_detector_free(d);
     return st;
+}
+
+int hd_face_detector_size(const hd_face_detector *d) { return d->size; }
+
+float hd_face_detector_min_face(const hd_face_detector *d, int width, int height)
+{
+    return d->min_face_frac * (float)(width > height ? width : height);
 }
 
 static float box_iou(const hd_face_box *a, const hd_face_box *b)
@@ -188,11 +216,9 @@ static int cmp_score_desc(const void *pa, const void *pb)
     return (a->score < b->score) - (a->score > b->score);
 }
 
-/* Weighted NMS over boxes sorted by score: the best remaining box takes every remaining box with
- * IoU > iou (itself included); the merged box is their score-weighted mean, with the best score.
- * Writes the merged boxes to the front of `boxes`; returns their count. */
-static int weighted_nms(hd_face_box *boxes, int n, float iou)
+int hd_face_boxes_merge(hd_face_box *boxes, int n, float iou)
 {
+    qsort(boxes, (size_t)n, sizeof *boxes, cmp_score_desc);
     char *taken = hd_calloc((size_t)n + 1, 1);
     if (!taken) return -1;
     int out = 0;
@@ -242,28 +268,31 @@ static hd_status check_photo(const hd_image *photo)
     return HD_OK;
 }
 
-hd_status hd_face_detector_run(hd_face_detector *d, const hd_image *photo, float min_score, hd_face_box **faces,
-                               int *count)
+/* Room for n more boxes in the detector's candidate list. */
+static hd_status reserve_boxes(hd_face_detector *d, int n)
 {
-    *faces = NULL;
-    *count = 0;
-    hd_status st = check_photo(photo);
-    if (st != HD_OK) return st;
-    if (!(min_score > 0.0f && min_score <= 1.0f))
-        return hd_fail(HD_ERR_ARG, "face detection: the score threshold %g is not in (0, 1]", (double)min_score);
-    /* Letterbox: scale s = 128 / max(W, H), bars (128 - W s) / 2 and (128 - H s) / 2; the
-     * letterbox pixel t shows photo point p = (t - bar) / s. */
-    float W = (float)photo->width, H = (float)photo->height;
-    float s = (float)DETECT_SIZE / (W > H ? W : H);
-    float bar_x = 0.5f * ((float)DETECT_SIZE - W * s), bar_y = 0.5f * ((float)DETECT_SIZE - H * s);
-    float origin[2] = {-bar_x / s, -bar_y / s}, ax[2] = {1.0f / s, 0.0f}, ay[2] = {0.0f, 1.0f / s};
-    hd_face_sample(photo, origin, ax, ay, DETECT_SIZE, DETECT_SIZE, -1.0f, 1.0f, HD_BORDER_ZERO, d->input);
-    st = hd_tfjs_run(d->graph, d->input);
-    if (st != HD_OK) return st;
+    if (d->nboxes + n <= d->capacity) return HD_OK;
+    if (d->nboxes > INT_MAX / 2 - n) return hd_fail(HD_ERR_RANGE, "face detection: too many candidate boxes");
+    int cap = 2 * (d->nboxes + n);
+    hd_face_box *b = realloc(d->boxes, (size_t)cap * sizeof *b);
+    if (!b) return HD_ERR_NOMEM;
+    d->boxes = b;
+    d->capacity = cap;
+    return HD_OK;
+}
 
-    hd_face_box *boxes = hd_malloc((size_t)d->nanchors * sizeof *boxes);
-    if (!boxes) return HD_ERR_NOMEM;
-    int n = 0, a = 0;
+hd_status hd_face_detector_window(hd_face_detector *d, const hd_image *photo, const hd_face_window *win,
+                                  float min_score)
+{
+    int N = d->size;
+    float side = win->side, step = side / (float)N;
+    float origin[2] = {win->x, win->y}, ax[2] = {step, 0.0f}, ay[2] = {0.0f, step};
+    hd_face_sample(photo, origin, ax, ay, N, N, -1.0f, 1.0f, HD_BORDER_ZERO, d->input);
+    hd_status st = hd_tfjs_run(d->graph, d->input);
+    if (st != HD_OK) return st;
+    if ((st = reserve_boxes(d, d->nanchors))) return st;
+    float x_hi = win->x + side, y_hi = win->y + side;
+    int a = 0;
     for (int k = 0; k < 2; k++) {
         const float *scores = hd_tfjs_output(d->graph, detect_heads[k].scores, NULL, NULL);
         const float *raw = hd_tfjs_output(d->graph, detect_heads[k].boxes, NULL, NULL);
@@ -274,35 +303,121 @@ hd_status hd_face_detector_run(hd_face_detector *d, const hd_image *photo, float
             if (score < min_score) continue;
             const float *r = raw + (size_t)i * NUM_COORDS;
             float acx = d->anchors[2 * a], acy = d->anchors[2 * a + 1];
-            /* normalised letterbox coordinates -> letterbox pixels -> photo pixels */
-            float cx = r[0] / DETECT_SIZE + acx, cy = r[1] / DETECT_SIZE + acy;
-            float bw = r[2] / DETECT_SIZE, bh = r[3] / DETECT_SIZE;
-            hd_face_box *b = &boxes[n++];
-            b->score = score;
-            b->x0 = ((cx - 0.5f * bw) * DETECT_SIZE - bar_x) / s;
-            b->x1 = ((cx + 0.5f * bw) * DETECT_SIZE - bar_x) / s;
-            b->y0 = ((cy - 0.5f * bh) * DETECT_SIZE - bar_y) / s;
-            b->y1 = ((cy + 0.5f * bh) * DETECT_SIZE - bar_y) / s;
+            /* network pixels / N + anchor = normalised window coordinates -> photo pixels */
+            float cx = r[0] / (float)N + acx, cy = r[1] / (float)N + acy;
+            float bw = r[2] / (float)N, bh = r[3] / (float)N;
+            hd_face_box b;
+            b.score = score;
+            b.x0 = win->x + (cx - 0.5f * bw) * side;
+            b.x1 = win->x + (cx + 0.5f * bw) * side;
+            b.y0 = win->y + (cy - 0.5f * bh) * side;
+            b.y1 = win->y + (cy + 0.5f * bh) * side;
+            /* A box that crosses an edge the window cuts through the photo may be part of a face:
+             * the neighbouring window, which overlaps this one by more than a face, sees it whole. */
+            if ((win->cut & HD_CUT_LEFT && b.x0 < win->x) || (win->cut & HD_CUT_TOP && b.y0 < win->y) ||
+                (win->cut & HD_CUT_RIGHT && b.x1 > x_hi) || (win->cut & HD_CUT_BOTTOM && b.y1 > y_hi))
+                continue;
             for (int kp = 0; kp < HD_FACE_KEYPOINTS; kp++) {
-                float kx = r[4 + 2 * kp] / DETECT_SIZE + acx, ky = r[5 + 2 * kp] / DETECT_SIZE + acy;
-                b->keypoints[kp][0] = (kx * DETECT_SIZE - bar_x) / s;
-                b->keypoints[kp][1] = (ky * DETECT_SIZE - bar_y) / s;
+                b.keypoints[kp][0] = win->x + (r[4 + 2 * kp] / (float)N + acx) * side;
+                b.keypoints[kp][1] = win->y + (r[5 + 2 * kp] / (float)N + acy) * side;
             }
+            d->boxes[d->nboxes++] = b;
         }
     }
-    qsort(boxes, (size_t)n, sizeof *boxes, cmp_score_desc);
-    n = weighted_nms(boxes, n, HD_FACE_NMS_IOU);
-    if (n < 0) {
-        free(boxes);
-        return HD_ERR_NOMEM;
+    return HD_OK;
+}
+
+/* The windows along one axis of length L for windows of side T overlapping by at least ov:
+ * one centred window when L <= T, else n evenly spread from 0 to L - T. */
+static int axis_windows(float L, float T, float ov, int *n, float *stride)
+{
+    if (L <= T) {
+        *n = 1;
+        *stride = 0.0f;
+        return 1;
     }
-    if (n == 0) {
+    int k = (int)ceilf((L - ov) / (T - ov));
+    if (k < 2) k = 2;
+    *n = k;
+    *stride = (L - T) / (float)(k - 1);
+    return k;
+}
+
+int hd_face_pyramid(const hd_face_detector *d, int width, int height, float min_face, hd_face_window *out, int cap)
+{
+    float W = (float)width, H = (float)height, T0 = W > H ? W : H, frac = d->min_face_frac;
+    int n = 0;
+    /* Level 0: the whole photo letterboxed, as MediaPipe does; it finds faces from frac T0 up. */
+    if (n < cap) out[n] = (hd_face_window){0.5f * (W - T0), 0.5f * (H - T0), T0, 0, 0};
+    n++;
+    if (!(min_face > 0.0f) || frac * T0 <= min_face) return n;
+    /* The finest level's windows make a min_face face just large enough (frac of the side), but
+     * enlarge the photo at most 1 / MIN_WINDOW_RATIO times; coarser levels double the side while it
+     * stays under T0. A level finds every face from frac T up; the faces the next coarser level
+     * misses are under frac 2T wide, so its windows overlap by PYRAMID_OVERLAP frac T. */
+    float T = min_face / frac, T_min = MIN_WINDOW_RATIO * (float)d->size;
+    if (T < T_min) T = T_min;
+    int levels = 0;
+    for (float t = T; t < T0 && levels < MAX_LEVELS; t *= 2.0f) levels++;
+    for (int level = levels; level >= 1; level--, T *= 2.0f) {
+        float ov = PYRAMID_OVERLAP * frac * T;
+        int nx, ny;
+        float sx, sy;
+        axis_windows(W, T, ov, &nx, &sx);
+        axis_windows(H, T, ov, &ny, &sy);
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++, n++) {
+                if (n >= cap) continue;
+                hd_face_window *w = &out[n];
+                w->x = nx == 1 ? 0.5f * (W - T) : (float)i * sx;
+                w->y = ny == 1 ? 0.5f * (H - T) : (float)j * sy;
+                w->side = T;
+                w->level = level;
+                w->cut = (i > 0 ? HD_CUT_LEFT : 0) | (i < nx - 1 ? HD_CUT_RIGHT : 0) | (j > 0 ? HD_CUT_TOP : 0) |
+                         (j < ny - 1 ? HD_CUT_BOTTOM : 0);
+            }
+    }
+    return n;
+}
+
+hd_status hd_face_detector_find(hd_face_detector *d, const hd_image *photo, float min_score, float min_face,
+                                hd_face_box **faces, int *count)
+{
+    *faces = NULL;
+    *count = 0;
+    hd_status st = check_photo(photo);
+    if (st != HD_OK) return st;
+    if (!(min_score > 0.0f && min_score <= 1.0f))
+        return hd_fail(HD_ERR_ARG, "face detection: the score threshold %g is not in (0, 1]", (double)min_score);
+    if (!(min_face >= 0.0f && min_face < 1e9f))
+        return hd_fail(HD_ERR_ARG, "face detection: the smallest face size %g is not a size in pixels", (double)min_face);
+    int nwin = hd_face_pyramid(d, photo->width, photo->height, min_face, NULL, 0);
+    hd_face_window *wins = hd_malloc((size_t)nwin * sizeof *wins);
+    if (!wins) return HD_ERR_NOMEM;
+    hd_face_pyramid(d, photo->width, photo->height, min_face, wins, nwin);
+    d->nboxes = 0;
+    for (int i = 0; i < nwin && !st; i++) st = hd_face_detector_window(d, photo, &wins[i], min_score);
+    free(wins);
+    if (st) return st;
+    int n = d->nboxes;
+    if (n == 0) return HD_OK;
+    hd_face_box *boxes = hd_malloc((size_t)n * sizeof *boxes);
+    if (!boxes) return HD_ERR_NOMEM;
+    memcpy(boxes, d->boxes, (size_t)n * sizeof *boxes);
+    n = hd_face_boxes_merge(boxes, n, HD_FACE_NMS_IOU);
+    if (n <= 0) {
         free(boxes);
-        return HD_OK;
+        return n < 0 ? HD_ERR_NOMEM : HD_OK;
     }
     *faces = boxes; /* shrinking is optional: the array stays valid at its full size */
     *count = n;
     return HD_OK;
+}
+
+hd_status hd_face_detector_run(hd_face_detector *d, const hd_image *photo, float min_score, hd_face_box **faces,
+                               int *count)
+{
+    return hd_face_detector_find(d, photo, min_score, HD_FACE_MIN_SIZE, faces, count);
 }
 
 hd_status hd_face_detect(const hd_image *photo, hd_face_box **faces, int *count)
