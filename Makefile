@@ -17,7 +17,8 @@ MAJOR   := $(firstword $(subst ., ,$(VERSION)))
 all:
 
 # The Debian/Ubuntu packages the build needs (through sudo unless already root).
-DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev
+DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev \
+        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev
 deps:
 	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
 	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
@@ -59,6 +60,15 @@ HD_MPI  ?= $(shell command -v mpicc >/dev/null 2>&1 && echo 1 || echo 0)
 ifeq ($(HD_MPI),1)
 MPI_CFLAGS := -DHD_HAVE_MPI=1 $(shell mpicc --showme:compile)
 MPI_LIBS   := $(shell mpicc --showme:link)
+endif
+
+# FFmpeg's libraries give video files (src/video/clip_ffmpeg.c); without them a clip is a folder of
+# frames and video files are refused with a message saying what to install. `make HD_FFMPEG=0` to leave them out.
+FFMPEG_PC := libavformat libavcodec libswscale libavutil
+HD_FFMPEG ?= $(shell pkg-config --exists $(FFMPEG_PC) 2>/dev/null && echo 1 || echo 0)
+ifeq ($(HD_FFMPEG),1)
+CFLAGS  += -DHD_HAVE_FFMPEG=1 $(shell pkg-config --cflags $(FFMPEG_PC))
+LDLIBS  += $(shell pkg-config --libs $(FFMPEG_PC))
 endif
 
 BUILD   ?= build

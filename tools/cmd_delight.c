@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
+#include "video_cli.h"
 
 HD_COMMAND("delight", cmd_delight, "remove the lighting of the faces of a photo or of an aligned face (albedo under flat light)")
 
@@ -13,11 +14,13 @@ int cmd_delight(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
     int aligned = 0;
+    hd_cli_clip clip = {0};
     const hd_opt opts[] = {
         HD_OPT_MODEL_ROW(model_path),
         {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "the delit image (8-bit PNG, or .pfm float32; the input's size)"},
         HD_OPT_FACE_MASK_ROW(mask_path),
         HD_OPT_ALIGNED_ROW(aligned),
+        HD_OPT_CLIP_ROWS(clip),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -34,6 +37,8 @@ int cmd_delight(int argc, char **argv)
     const char *image_path = pos[0];
     free(pos);
     if (!out) return hd_usage_error(&spec, "-o is required");
+    if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
+        return hd_cli_video("delight", image_path, out, model_path, NULL, NULL, HD_BRIGHTNESS_KEEP, &clip);
 
     const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;

@@ -9,6 +9,7 @@
 #include <string.h>
 #include "cli.h"
 #include "core/core.h"
+#include "video_cli.h"
 
 HD_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
 
@@ -56,6 +57,7 @@ int cmd_relight(int argc, char **argv)
     hd_opt_floats dir = {.max = 2};
     float intensity = NAN, ambient = NAN;
     int keep = 0, no_keep = 0, aligned = 0;
+    hd_cli_clip clip = {0};
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
              (double)HD_LIGHT_DEFAULT_INTENSITY);
@@ -76,6 +78,7 @@ int cmd_relight(int argc, char **argv)
         {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
         {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
         HD_OPT_ALIGNED_ROW(aligned),
+        HD_OPT_CLIP_ROWS(clip),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -125,6 +128,9 @@ int cmd_relight(int argc, char **argv)
     } else if (hd_light_read(light_path, lights[0]) != HD_OK) {
         return hd_report("relight");
     }
+    if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
+        return all || sheet_path ? hd_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)")
+                                 : hd_cli_video("relight", image_path, out, model_path, lights[0], NULL, brightness, &clip);
 
     const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
+#include "video_cli.h"
 
 HD_COMMAND("transfer", cmd_transfer, "relight the faces of a photo (or an aligned face) with the light of a reference face")
 
@@ -13,6 +14,7 @@ int cmd_transfer(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
     int keep = 0, no_keep = 0, aligned = 0;
+    hd_cli_clip clip = {0};
     const hd_opt opts[] = {
         {"ref", 0, HD_OPT_STRING, &ref_path, "REF", "the photo (its best face) or aligned face whose light is taken"},
         HD_OPT_MODEL_ROW(model_path),
@@ -23,6 +25,7 @@ int cmd_transfer(int argc, char **argv)
         {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
+        HD_OPT_CLIP_ROWS(clip),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const hd_cmd_spec spec = {
@@ -40,6 +43,8 @@ int cmd_transfer(int argc, char **argv)
     if (!out) return hd_usage_error(&spec, "-o is required");
     if (keep && no_keep) return hd_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
     const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
+        return hd_cli_video("transfer", image_path, out, model_path, NULL, ref_path, brightness, &clip);
 
     const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     const int ref_photo = !aligned && hd_input_kind_of(ref_path) == HD_INPUT_PHOTO;

@@ -1,0 +1,220 @@
+/* relighter.c: one frame of a clip through the photo pipeline, with the state that keeps it steady
+ * (video.h). Faces are tracked by their box centres from frame to frame; each track may smooth its
+ * 468 landmarks (one-euro, in face widths, so the filter behaves the same at any face size; the
+ * face is then unwarped again from them) and, after the face is decomposed, smooths the light and
+ * the shading and normal maps (a first-order low-pass: the maps are in the aligned texture space, where every
+ * texel stays on the same point of the face). The relit texture is warped back and blended as
+ * hd_relight_photo does (HD_WARP_CHANGE). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "video/smooth.h"
+#include "video/video.h"
+
+#define MAX_TRACKS 16
+#define NLM (HD_FACE_LANDMARKS * 3)
+#define MATCH_DISTANCE 0.5f /* a face continues a track when its centre is within this many widths */
+
+typedef struct track {
+    int used, seen;
+    float cx, cy, width;        /* the last box */
+    hd_one_euro landmarks;      /* NLM values in face widths */
+    hd_ema light, shading, normal;
+    int maps;                   /* shading / normal filters are set up (their size is the model's) */
+} track;
+
+struct hd_video_relighter {
+    hd_model *model;
+    hd_aligner *aligner;
+    int delight;
+    float light[HD_SH_COEFFS];
+    hd_brightness brightness;
+    hd_video_options opt;
+    float dt;
+    track tracks[MAX_TRACKS];
+    float lm[NLM];
+};
+
+void hd_video_options_default(hd_video_options *o)
+{
+    o->smooth = 1;
+    o->smooth_landmarks = 0;
+    o->landmark_min_cutoff = 3.0f;
+    o->landmark_beta = 60.0f;
+    o->light_cutoff = 1.5f;
+}
+
+static void track_free(track *t)
+{
+    hd_one_euro_free(&t->landmarks);
+    hd_ema_free(&t->light);
+    hd_ema_free(&t->shading);
+    hd_ema_free(&t->normal);
+    memset(t, 0, sizeof *t);
+}
+
+hd_status hd_video_relighter_new(hd_model *model, hd_aligner *aligner, const float *light, hd_brightness brightness,
+                                 const hd_video_options *options, hd_video_relighter **out)
+{
+    *out = NULL;
+    hd_video_options o;
+    if (options) o = *options;
+    else hd_video_options_default(&o);
+    if (!model || !aligner) return hd_fail(HD_ERR_ARG, "video: no model or aligner");
+    if (!(o.landmark_min_cutoff > 0.0f) || !(o.landmark_beta >= 0.0f) || !(o.light_cutoff > 0.0f) ||
+        !isfinite(o.landmark_min_cutoff) || !isfinite(o.landmark_beta) || !isfinite(o.light_cutoff))
+        return hd_fail(HD_ERR_ARG, "video: smoothing cutoffs must be positive and finite");
+    hd_video_relighter *v = hd_calloc(1, sizeof *v);
+    if (!v) return HD_ERR_NOMEM;
+    v->model = model;
+    v->aligner = aligner;
+    v->delight = light == NULL;
+    if (light) memcpy(v->light, light, sizeof v->light);
+    v->brightness = brightness;
+    v->opt = o;
+    v->dt = 1.0f / 30.0f;
+    *out = v;
+    return HD_OK;
+}
+
+void hd_video_relighter_set_fps(hd_video_relighter *v, double fps)
+{
+    if (fps > 0.0 && fps < 1e4) v->dt = (float)(1.0 / fps);
+}
+
+void hd_video_relighter_free(hd_video_relighter *v)
+{
+    if (!v) return;
+    for (int i = 0; i < MAX_TRACKS; i++) track_free(&v->tracks[i]);
+    free(v);
+}
+
+/* The track a face continues (nearest centre within MATCH_DISTANCE widths, not yet taken this
+ * frame), or a new one; NULL when all are taken. */
+static track *track_for(hd_video_relighter *v, const hd_aligned_face *f, hd_status *st)
+{
+    float cx = 0.5f * (f->box[0] + f->box[2]), cy = 0.5f * (f->box[1] + f->box[3]), w = f->box[2] - f->box[0];
+    track *best = NULL;
+    float best_d = INFINITY;
+    for (int i = 0; i < MAX_TRACKS; i++) {
+        track *t = &v->tracks[i];
+        if (!t->used || t->seen) continue;
+        float d = hypotf(cx - t->cx, cy - t->cy);
+        if (d < MATCH_DISTANCE * t->width && d < best_d) best = t, best_d = d;
+    }
+    if (!best) {
+        for (int i = 0; i < MAX_TRACKS && !best; i++)
+            if (!v->tracks[i].used) best = &v->tracks[i];
+        if (!best) return NULL;
+        *st = hd_one_euro_init(&best->landmarks, NLM, v->opt.landmark_min_cutoff, v->opt.landmark_beta,
+                               v->opt.landmark_min_cutoff);
+        if (*st == HD_OK) *st = hd_ema_init(&best->light, HD_SH_COEFFS, hd_lowpass_alpha(v->opt.light_cutoff, v->dt));
+        if (*st != HD_OK) {
+            track_free(best);
+            return NULL;
+        }
+        best->used = 1;
+    }
+    best->seen = 1;
+    best->cx = cx;
+    best->cy = cy;
+    best->width = w > 1.0f ? w : 1.0f;
+    return best;
+}
+
+/* Smooths the decomposition's light, shading and normals (renormalised) in place. */
+static hd_status smooth_maps(hd_video_relighter *v, track *t, hd_decomposition *d)
+{
+    size_t hw = (size_t)d->shading.width * d->shading.height;
+    if (!t->maps) {
+        float a = hd_lowpass_alpha(v->opt.light_cutoff, v->dt);
+        hd_status st = hd_ema_init(&t->shading, (int)hw, a);
+        if (st == HD_OK) st = hd_ema_init(&t->normal, (int)(3 * hw), a);
+        if (st != HD_OK) return st;
+        t->maps = 1;
+    }
+    if ((size_t)t->shading.n != hw) return hd_fail(HD_ERR_ARG, "video: the model's map size changed");
+    hd_ema_step(&t->light, d->light);
+    hd_ema_step(&t->shading, d->shading.data);
+    hd_ema_step(&t->normal, d->normal.data);
+    float *x = d->normal.data, *y = x + hw, *z = y + hw;
+    for (size_t p = 0; p < hw; p++) {
+        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
+        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
+        x[p] *= inv, y[p] *= inv, z[p] *= inv;
+    }
+    return HD_OK;
+}
+
+/* Refits face f to its track's smoothed landmarks (the face is unwarped again from them). */
+static hd_status smooth_landmarks(hd_video_relighter *v, track *t, const hd_image *frame, hd_aligned_face *f)
+{
+    float scale = t->width;
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++)
+        for (int k = 0; k < 3; k++) v->lm[3 * i + k] = f->landmarks[i][k] / scale;
+    hd_one_euro_step(&t->landmarks, v->lm, v->dt);
+    float (*lm)[3] = (float (*)[3])v->lm;
+    for (int i = 0; i < NLM; i++) v->lm[i] *= scale;
+    hd_aligned_face g;
+    memset(&g, 0, sizeof g);
+    hd_status st = hd_align_face(frame, (const float (*)[3])lm, f->size, &g);
+    if (st != HD_OK) return st;
+    g.score = f->score;
+    memcpy(g.box, f->box, sizeof g.box);
+    hd_aligned_face_free(f);
+    *f = g;
+    return HD_OK;
+}
+
+hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, hd_image *out,
+                                 hd_video_frame_info *info)
+{
+    memset(out, 0, sizeof *out);
+    if (info) memset(info, 0, sizeof *info);
+    if (!frame || !frame->data || frame->channels != 3)
+        return hd_fail(HD_ERR_ARG, "video: a frame has 3 channels (has %d)", frame ? frame->channels : 0);
+    hd_aligned_face *faces = NULL;
+    int n = 0;
+    hd_status st = hd_aligner_run(v->aligner, frame, hd_photo_texture_size(v->model), &faces, &n);
+    if (st == HD_ERR_NOTFOUND) st = HD_OK, n = 0; /* a frame without a face is passed through */
+    if (st != HD_OK) return st;
+    st = hd_image_alloc(out, frame->width, frame->height, 3);
+    if (st == HD_OK)
+        memcpy(out->data, frame->data, (size_t)frame->width * frame->height * 3 * sizeof(float));
+    for (int i = 0; i < MAX_TRACKS; i++) v->tracks[i].seen = 0;
+    hd_image tex = {0};
+    int done = 0;
+    for (int k = 0; k < n && st == HD_OK; k++) {
+        hd_aligned_face *f = &faces[k];
+        track *t = v->opt.smooth ? track_for(v, f, &st) : NULL;
+        if (st != HD_OK) break;
+        if (t && v->opt.smooth_landmarks) st = smooth_landmarks(v, t, frame, f);
+        if (st != HD_OK) break;
+        hd_decomposition d;
+        memset(&d, 0, sizeof d);
+        st = hd_model_decompose(v->model, &f->texture, 1, &d);
+        if (st == HD_OK && t) st = smooth_maps(v, t, &d);
+        if (st == HD_OK && info && k == 0) {
+            info->has_light = 1;
+            memcpy(info->light, d.light, sizeof info->light);
+        }
+        if (st == HD_OK)
+            st = v->delight ? hd_delight(&f->texture, &d, &f->mask, &tex)
+                            : hd_relight(&f->texture, &d, &f->mask, v->light, v->brightness, &tex);
+        if (st == HD_OK) st = hd_warp_back_blend(f, &tex, HD_WARP_CHANGE, 0, out, NULL);
+        hd_image_free(&tex);
+        hd_decomposition_free(&d);
+        if (st == HD_OK) done++;
+    }
+    /* Tracks not seen in this frame end: a face that comes back starts afresh. */
+    for (int i = 0; i < MAX_TRACKS; i++)
+        if (v->tracks[i].used && !v->tracks[i].seen) track_free(&v->tracks[i]);
+    hd_aligned_faces_free(faces, n);
+    if (st != HD_OK) {
+        hd_image_free(out);
+        return st;
+    }
+    if (info) info->faces = done;
+    return HD_OK;
+}

@@ -1,0 +1,370 @@
+/* test_video.c: relighting clips (src/video). Clips whose true light does not change: the
+ * bundled photo shifted by whole pixels from frame to frame (a random walk: a shaking camera), or
+ * not shifted (a still camera), with a little sensor noise. Flicker is measured two ways: the
+ * estimated light's change between frames (L2 over the 9 coefficients) and the change of the
+ * relighting's gain out / in over the face's box between frames, with the known shift undone (the
+ * input's noise divided out). On the shaking clip, smoothing the decomposition must lower both;
+ * on the still clip, smoothing the landmarks too must lower the face region's. Then the clip
+ * formats: a folder of frames in and out (every frame written, same size), and, when the build
+ * has FFmpeg, a video file written and read back (frame count, frame rate, pixels within coding
+ * loss) and relit video to video with its audio stream copied packet for packet. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include "test.h"
+#include "core/core.h"
+#include "video/video.h"
+#if HD_HAVE_FFMPEG
+#include <libavformat/avformat.h>
+#endif
+
+#define NFRAMES 8
+#define MAXSHIFT 3
+
+static char source_dir[4200];
+static hd_image frames[NFRAMES];
+static int shift[NFRAMES][2];
+
+static void find_source_dir(void)
+{
+    char exe[4096];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0) return;
+    exe[n] = '\0';
+    *strrchr(exe, '/') = '\0';
+    snprintf(source_dir, sizeof source_dir, "%s/../..", exe);
+}
+
+/* Frame t shows photo point p - shift[t] at pixel p (edges replicated), plus noise; a still clip
+ * (moving 0) has no shifts. */
+static void make_clip(const hd_image *photo, int moving)
+{
+    hd_rng r;
+    hd_rng_seed(&r, 42, 1);
+    int sx = 0, sy = 0, W = photo->width, H = photo->height;
+    for (int t = 0; t < NFRAMES; t++) {
+        if (t > 0 && moving) {
+            sx += (int)hd_rng_below(&r, 3) - 1;
+            sy += (int)hd_rng_below(&r, 3) - 1;
+            sx = sx > MAXSHIFT ? MAXSHIFT : sx < -MAXSHIFT ? -MAXSHIFT : sx;
+            sy = sy > MAXSHIFT ? MAXSHIFT : sy < -MAXSHIFT ? -MAXSHIFT : sy;
+        }
+        shift[t][0] = sx, shift[t][1] = sy;
+        hd_image_free(&frames[t]);
+        CHECK(hd_image_alloc(&frames[t], W, H, 3) == HD_OK);
+        for (int c = 0; c < 3; c++)
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    int u = x - sx, v = y - sy;
+                    u = u < 0 ? 0 : u >= W ? W - 1 : u;
+                    v = v < 0 ? 0 : v >= H ? H - 1 : v;
+                    float val = photo->data[((size_t)c * H + v) * W + u] + 0.01f * hd_rng_normal(&r);
+                    frames[t].data[((size_t)c * H + y) * W + x] = val < 0 ? 0 : val > 1 ? 1 : val;
+                }
+    }
+}
+
+/* The relighting's gain out / in at photo point (x, y) of frame t (shift undone). */
+static double gain(const hd_image *out, const hd_image *in, const int s[2], int c, int x, int y)
+{
+    size_t i = ((size_t)c * in->height + y + s[1]) * in->width + x + s[0];
+    return (double)out->data[i] / fmax(in->data[i], 0.05);
+}
+
+/* Mean |gain_t - gain_t-1| over the face box (photo coordinates of the unshifted photo): how much
+ * the relighting itself changes between frames, the input's noise divided out. */
+static double gain_change(const hd_image *out_a, const hd_image *in_a, const int sa[2], const hd_image *out_b,
+                          const hd_image *in_b, const int sb[2])
+{
+    const int x0 = 175, x1 = 275, y0 = 55, y1 = 195;
+    double s = 0.0;
+    long n = 0;
+    for (int c = 0; c < 3; c++)
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++, n++)
+                s += fabs(gain(out_a, in_a, sa, c, x, y) - gain(out_b, in_b, sb, c, x, y));
+    return s / (double)n;
+}
+
+/* Mean |a(p + sa) - b(p + sb)| over the face box (photo coordinates of the unshifted photo). */
+static double region_change(const hd_image *a, const int sa[2], const hd_image *b, const int sb[2])
+{
+    const int x0 = 175, x1 = 275, y0 = 55, y1 = 195; /* the astronaut's face, hairline to chin */
+    int W = a->width, H = a->height;
+    double s = 0.0;
+    long n = 0;
+    for (int c = 0; c < 3; c++)
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++) {
+                float va = a->data[((size_t)c * H + y + sa[1]) * W + x + sa[0]];
+                float vb = b->data[((size_t)c * H + y + sb[1]) * W + x + sb[0]];
+                s += fabs((double)va - vb);
+                n++;
+            }
+    return s / (double)n;
+}
+
+/* Relights the clip with or without smoothing (and of the landmarks); the two flicker measures. */
+static void flicker(hd_model *model, hd_aligner *aligner, int smooth, int landmarks, double *light_change,
+                    double *face_change)
+{
+    float light[HD_SH_COEFFS];
+    hd_light_preset(3, light);
+    hd_video_options o;
+    hd_video_options_default(&o);
+    o.smooth = smooth;
+    o.smooth_landmarks = landmarks;
+    hd_video_relighter *v = NULL;
+    CHECK(hd_video_relighter_new(model, aligner, light, HD_BRIGHTNESS_KEEP, &o, &v) == HD_OK);
+    if (!v) return;
+    hd_video_relighter_set_fps(v, 30.0);
+    hd_image prev = {0};
+    float prev_light[HD_SH_COEFFS];
+    *light_change = *face_change = 0.0;
+    double input_change = 0.0, output_change = 0.0;
+    for (int t = 0; t < NFRAMES; t++) {
+        hd_image out;
+        hd_video_frame_info info;
+        hd_status st = hd_video_relight_frame(v, &frames[t], &out, &info);
+        if (st != HD_OK) fprintf(stderr, "frame %d: %s\n", t, hd_error());
+        CHECK(st == HD_OK && info.faces == 1 && info.has_light);
+        if (st != HD_OK) break;
+        if (t > 0) {
+            double s = 0.0;
+            for (int k = 0; k < HD_SH_COEFFS; k++) s += (double)(info.light[k] - prev_light[k]) * (info.light[k] - prev_light[k]);
+            *light_change += sqrt(s) / (NFRAMES - 1);
+            *face_change += gain_change(&out, &frames[t], shift[t], &prev, &frames[t - 1], shift[t - 1]) / (NFRAMES - 1);
+            output_change += region_change(&out, shift[t], &prev, shift[t - 1]) / (NFRAMES - 1);
+            input_change += region_change(&frames[t], shift[t], &frames[t - 1], shift[t - 1]) / (NFRAMES - 1);
+        }
+        memcpy(prev_light, info.light, sizeof prev_light);
+        hd_image_free(&prev);
+        prev = out;
+    }
+    hd_image_free(&prev);
+    fprintf(stderr, "%s: light change %.5f per frame, face region: gain change %.5f, value change %.5f (input's own %.5f)\n",
+            smooth ? (landmarks ? "smoothed with landmarks" : "smoothed") : "not smoothed", *light_change, *face_change, output_change, input_change);
+    hd_video_relighter_free(v);
+}
+
+static long count_files(const char *dir)
+{
+    char cmd[4400];
+    snprintf(cmd, sizeof cmd, "ls '%s' | wc -l", dir);
+    FILE *p = popen(cmd, "r");
+    long n = -1;
+    if (p) {
+        if (fscanf(p, "%ld", &n) != 1) n = -1;
+        pclose(p);
+    }
+    return n;
+}
+
+static void test_folder(hd_model *model, hd_aligner *aligner)
+{
+    hd_clip_writer *w = NULL;
+    CHECK(hd_clip_create("in_frames", NULL, frames[0].width, frames[0].height, &w) == HD_OK);
+    for (int t = 0; t < 4 && w; t++) CHECK(hd_clip_write(w, &frames[t]) == HD_OK);
+    CHECK(hd_clip_finish(w, 1) == HD_OK);
+    CHECK(count_files("in_frames") == 4);
+    hd_video_relighter *v = NULL;
+    CHECK(hd_video_relighter_new(model, aligner, NULL, HD_BRIGHTNESS_KEEP, NULL, &v) == HD_OK);
+    hd_video_report rep;
+    hd_status st = hd_video_relight_clip(v, "in_frames", "out_frames", 25.0, &rep);
+    if (st) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK && rep.frames == 4 && rep.frames_with_face == 4);
+    CHECK(count_files("out_frames") == 4);
+    hd_image img = {0};
+    CHECK(hd_image_read("out_frames/frame000003.png", &img) == HD_OK && img.width == 512 && img.height == 512);
+    hd_image_free(&img);
+    /* a folder needs a frame rate; an empty folder has no frames */
+    CHECK(hd_video_relight_clip(v, "in_frames", "x", 0.0, &rep) == HD_ERR_ARG && strstr(hd_error(), "frame rate"));
+    mkdir("empty", 0755);
+    CHECK(hd_video_relight_clip(v, "empty", "y", 25.0, &rep) == HD_ERR_NOTFOUND && strstr(hd_error(), "empty"));
+    CHECK(access("y", F_OK) != 0);
+    hd_video_relighter_free(v);
+}
+
+#if HD_HAVE_FFMPEG
+/* A Matroska file with our frames (encoded by hd_clip) is made first; then a copy with a PCM audio
+ * stream added by remuxing, whose packets the relit output must carry unchanged. */
+static long audio_packets(const char *path, int64_t *bytes)
+{
+    AVFormatContext *f = NULL;
+    *bytes = 0;
+    if (avformat_open_input(&f, path, NULL, NULL) < 0) return -1;
+    avformat_find_stream_info(f, NULL);
+    int a = av_find_best_stream(f, AVMEDIA_TYPE_AUDIO, -1, -1, NULL, 0);
+    long n = 0;
+    AVPacket *p = av_packet_alloc();
+    while (a >= 0 && av_read_frame(f, p) >= 0) {
+        if (p->stream_index == a) n++, *bytes += p->size;
+        av_packet_unref(p);
+    }
+    av_packet_free(&p);
+    avformat_close_input(&f);
+    return a >= 0 ? n : 0;
+}
+
+/* Remuxes `in` (video only) to `out` with one second of 16-bit mono PCM at 8 kHz per second of video. */
+static int add_audio(const char *in, const char *out, double seconds)
+{
+    AVFormatContext *i = NULL, *o = NULL;
+    if (avformat_open_input(&i, in, NULL, NULL) < 0 || avformat_find_stream_info(i, NULL) < 0) return 0;
+    avformat_alloc_output_context2(&o, NULL, NULL, out);
+    AVStream *vs = avformat_new_stream(o, NULL), *as = avformat_new_stream(o, NULL);
+    avcodec_parameters_copy(vs->codecpar, i->streams[0]->codecpar);
+    vs->codecpar->codec_tag = 0;
+    vs->time_base = i->streams[0]->time_base;
+    as->codecpar->codec_type = AVMEDIA_TYPE_AUDIO;
+    as->codecpar->codec_id = AV_CODEC_ID_PCM_S16LE;
+    as->codecpar->sample_rate = 8000;
+    av_channel_layout_default(&as->codecpar->ch_layout, 1);
+    as->codecpar->bits_per_coded_sample = 16;
+    as->codecpar->block_align = 2;
+    as->time_base = (AVRational){1, 8000};
+    if (avio_open(&o->pb, out, AVIO_FLAG_WRITE) < 0 || avformat_write_header(o, NULL) < 0) return 0;
+    AVPacket *p = av_packet_alloc();
+    while (av_read_frame(i, p) >= 0) {
+        av_packet_rescale_ts(p, i->streams[0]->time_base, vs->time_base);
+        p->stream_index = 0;
+        av_interleaved_write_frame(o, p);
+    }
+    int nchunks = (int)(seconds * 10.0);
+    for (int k = 0; k < nchunks; k++) { /* 100 ms chunks of a 440 Hz tone */
+        av_new_packet(p, 1600);
+        for (int s = 0; s < 800; s++) {
+            int16_t v = (int16_t)(8000.0 * sin(2.0 * M_PI * 440.0 * (k * 800 + s) / 8000.0));
+            memcpy(p->data + 2 * s, &v, 2);
+        }
+        p->pts = p->dts = (int64_t)k * 800;
+        p->duration = 800;
+        p->stream_index = 1;
+        av_interleaved_write_frame(o, p);
+    }
+    av_packet_free(&p);
+    av_write_trailer(o);
+    avio_closep(&o->pb);
+    avformat_free_context(o);
+    avformat_close_input(&i);
+    return 1;
+}
+
+static void test_video_file(hd_model *model, hd_aligner *aligner)
+{
+    CHECK(hd_video_supported());
+    hd_clip_writer *w = NULL;
+    hd_status st = hd_clip_create("clip.mkv", NULL, 512, 512, &w);
+    if (st) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK);
+    for (int t = 0; t < NFRAMES && w; t++) CHECK(hd_clip_write(w, &frames[t]) == HD_OK);
+    CHECK(hd_clip_finish(w, 1) == HD_OK);
+    /* read back: every frame, 30 fps, within coding loss */
+    hd_clip_reader *r = NULL;
+    st = hd_clip_open("clip.mkv", 0.0, &r);
+    CHECK(st == HD_OK);
+    if (!r) return;
+    CHECK_NEAR(hd_clip_fps(r), 30.0, 1e-6);
+    int n = 0, got = 1;
+    double err = 0.0;
+    while (got) {
+        hd_image f;
+        CHECK(hd_clip_read(r, &f, &got) == HD_OK);
+        if (!got) break;
+        if (n < NFRAMES && f.width == 512 && f.height == 512) {
+            double s = 0.0;
+            size_t m = (size_t)512 * 512 * 3;
+            for (size_t i = 0; i < m; i++) s += fabs((double)f.data[i] - frames[n].data[i]);
+            err += s / (double)m;
+        }
+        hd_image_free(&f);
+        n++;
+    }
+    hd_clip_close(r);
+    fprintf(stderr, "video file: %d frames back, mean |error| %.4f\n", n, n ? err / n : 0.0);
+    CHECK(n == NFRAMES);
+    CHECK(err / NFRAMES < 0.02);
+
+    /* video to video with audio: the audio packets come through unchanged */
+    CHECK(add_audio("clip.mkv", "clip_audio.mkv", NFRAMES / 30.0));
+    int64_t in_bytes, out_bytes;
+    long in_packets = audio_packets("clip_audio.mkv", &in_bytes);
+    CHECK(in_packets > 0);
+    float light[HD_SH_COEFFS];
+    hd_light_preset(3, light);
+    hd_video_relighter *v = NULL;
+    CHECK(hd_video_relighter_new(model, aligner, light, HD_BRIGHTNESS_KEEP, NULL, &v) == HD_OK);
+    hd_video_report rep;
+    st = hd_video_relight_clip(v, "clip_audio.mkv", "relit.mkv", 0.0, &rep);
+    if (st) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK && rep.frames == NFRAMES && rep.frames_with_face == NFRAMES);
+    long out_packets = audio_packets("relit.mkv", &out_bytes);
+    fprintf(stderr, "audio: %ld packets (%lld bytes) in, %ld (%lld) out\n", in_packets, (long long)in_bytes, out_packets,
+            (long long)out_bytes);
+    CHECK(out_packets == in_packets && out_bytes == in_bytes);
+    CHECK(hd_clip_open("relit.mkv", 0.0, &r) == HD_OK);
+    if (r) {
+        CHECK_NEAR(hd_clip_fps(r), 30.0, 1e-6);
+        hd_clip_close(r);
+    }
+    /* a file that is not a video */
+    FILE *f = fopen("bad.mp4", "w");
+    if (f) fputs("not a video\n", f), fclose(f);
+    CHECK(hd_video_relight_clip(v, "bad.mp4", "bad_out.mp4", 0.0, &rep) != HD_OK && strstr(hd_error(), "bad.mp4"));
+    CHECK(access("bad_out.mp4", F_OK) != 0);
+    hd_video_relighter_free(v);
+}
+#endif
+
+int main(void)
+{
+    find_source_dir();
+    char path[4400];
+    snprintf(path, sizeof path, "%s/models", source_dir);
+    setenv("HDNET_DATA", path, 1);
+    snprintf(path, sizeof path, "%s/examples/astronaut.png", source_dir);
+    hd_image photo = {0};
+    CHECK(hd_image_read_as(path, 3, &photo) == HD_OK);
+    hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
+    hd_status st = hd_model_load(NULL, &model);
+    if (st == HD_OK) st = hd_aligner_load(&aligner);
+    if (st != HD_OK) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK);
+    if (!photo.data || !model || !aligner) return test_summary("video");
+    /* A shaking camera: smoothing the decomposition lowers both measures. */
+    make_clip(&photo, 1);
+    double light_raw, face_raw, light_smooth, face_smooth;
+    flicker(model, aligner, 0, 0, &light_raw, &face_raw);
+    flicker(model, aligner, 1, 0, &light_smooth, &face_smooth);
+    fprintf(stderr, "moving clip: light %.5f -> %.5f (x%.2f), face region gain %.5f -> %.5f (x%.2f)\n", light_raw,
+            light_smooth, light_smooth / light_raw, face_raw, face_smooth, face_smooth / face_raw);
+    CHECK(light_raw > 0.0 && light_smooth < 0.7 * light_raw);
+    CHECK(face_raw > 0.0 && face_smooth < face_raw);
+    /* A still camera: smoothing the landmarks too lowers the face region's change further. */
+    make_clip(&photo, 0);
+    double light_lm, face_lm;
+    flicker(model, aligner, 1, 0, &light_smooth, &face_smooth);
+    flicker(model, aligner, 1, 1, &light_lm, &face_lm);
+    fprintf(stderr, "still clip: face region gain %.5f (decomposition smoothed) -> %.5f (and landmarks)\n", face_smooth,
+            face_lm);
+    CHECK(face_lm < face_smooth);
+
+    test_folder(model, aligner);
+#if HD_HAVE_FFMPEG
+    test_video_file(model, aligner);
+#else
+    fprintf(stderr, "video: built without FFmpeg: the video file part is not tested (needs libavformat-dev, "
+                    "libavcodec-dev, libswscale-dev)\n");
+    CHECK(!hd_video_supported());
+    hd_clip_reader *r = NULL;
+    CHECK(hd_clip_open("clip.mp4", 0.0, &r) == HD_ERR_ARG && strstr(hd_error(), "apt-get install"));
+#endif
+    for (int t = 0; t < NFRAMES; t++) hd_image_free(&frames[t]);
+    hd_aligner_free(aligner);
+    hd_model_free(model);
+    hd_image_free(&photo);
+    return test_summary("video");
+}
