@@ -19,6 +19,7 @@
 typedef struct track {
     int used, seen;
     float cx, cy, width;        /* the last box */
+    float scale;                /* the first box's width: the landmark filter's unit */
     hd_one_euro landmarks;      /* NLM values in face widths */
     hd_ema light, shading, normal;
     int maps;                   /* shading / normal filters are set up (their size is the model's) */
@@ -115,6 +116,7 @@ static track *track_for(hd_video_relighter *v, const hd_aligned_face *f, hd_stat
             return NULL;
         }
         best->used = 1;
+        best->scale = w > 1.0f ? w : 1.0f;
     }
     best->seen = 1;
     best->cx = cx;
@@ -150,7 +152,7 @@ static hd_status smooth_maps(hd_video_relighter *v, track *t, hd_decomposition *
 /* Refits face f to its track's smoothed landmarks (the face is unwarped again from them). */
 static hd_status smooth_landmarks(hd_video_relighter *v, track *t, const hd_image *frame, hd_aligned_face *f)
 {
-    float scale = t->width;
+    float scale = t->scale; /* fixed per track: a unit that moved with the box would add its jitter */
     for (int i = 0; i < HD_FACE_LANDMARKS; i++)
         for (int k = 0; k < 3; k++) v->lm[3 * i + k] = f->landmarks[i][k] / scale;
     hd_one_euro_step(&t->landmarks, v->lm, v->dt);
