@@ -15,7 +15,7 @@ typedef struct hd_cli_clip {
      "IMG is a folder of frames (in name order) of a clip at N frames per second, smoothed as a video; -o names "      \
      "a video file or a folder of PNG frames"},                                                                        \
     {"no-smooth", 0, HD_OPT_FLAG, &(c).no_smooth, NULL,                                                               \
-     "with a clip: no smoothing of landmarks and light across frames"}
+     "with a clip: no smoothing of the estimated light, shading and normals across frames"}
 
 /* Whether the input is a clip: a video file (by extension), or a folder with --fps. */
 int hd_cli_is_clip(const char *input, const hd_cli_clip *clip);
