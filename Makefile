@@ -18,7 +18,7 @@ all:
 
 # The Debian/Ubuntu packages the build needs (through sudo unless already root).
 DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev \
-        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev
+        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev libmicrohttpd-dev curl
 deps:
 	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
 	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
@@ -71,11 +71,21 @@ CFLAGS  += -DHD_HAVE_FFMPEG=1 $(shell pkg-config --cflags $(FFMPEG_PC))
 LDLIBS  += $(shell pkg-config --libs $(FFMPEG_PC))
 endif
 
+# libmicrohttpd is the HTTP server of `hdnet serve`; without it the command says how to get it.
+HD_MHD  ?= $(shell test -f /usr/include/microhttpd.h && echo 1 || echo 0)
+
 BUILD   ?= build
 SRC     := $(sort $(wildcard src/*/*.c))
 OBJ     := $(SRC:%.c=$(BUILD)/%.o)
 TOOLSRC := $(sort $(wildcard tools/*.c))
 TOOLOBJ := $(TOOLSRC:%.c=$(BUILD)/%.o)
+SERVESRC := $(sort $(wildcard tools/serve/*.c))
+PAGE    := $(sort $(wildcard tools/serve/page/*))
+ifeq ($(HD_MHD),1)
+CFLAGS  += -DHD_HAVE_MHD=1
+TOOLOBJ += $(SERVESRC:%.c=$(BUILD)/%.o) $(BUILD)/serve_assets.o
+TOOLLIBS += -lmicrohttpd
+endif
 TESTSRC := $(sort $(wildcard tests/test_*.c))
 TESTBIN := $(TESTSRC:tests/%.c=$(BUILD)/tests/%)
 # Every object and test depends on the headers it includes (gcc -MMD -MP writes BUILD/...d beside it).
@@ -125,13 +135,21 @@ $(TOOLOBJ): CFLAGS += $(MPI_CFLAGS)
 # Only the dispatcher includes the generated command list.
 $(BUILD)/tools/main.o: $(BUILD)/commands.inc
 
+# The page of `hdnet serve`, compiled into the binary.
+$(BUILD)/serve_assets.c: $(PAGE) tools/serve/embed.sh
+	@mkdir -p $(dir $@)
+	sh tools/serve/embed.sh $@ $(PAGE)
+
+$(BUILD)/serve_assets.o: $(BUILD)/serve_assets.c $(BUILD)/.deps-mmd
+	$(CC) $(CFLAGS) $(DEPFLAGS) -Itools -c $< -o $@
+
 # Every tools/cmd_*.c registers itself with a line HD_COMMAND("name", fn, "summary").
 $(BUILD)/commands.inc: $(TOOLSRC)
 	@mkdir -p $(dir $@)
 	cat /dev/null $(wildcard tools/cmd_*.c) | grep '^HD_COMMAND(' > $@.tmp; cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 
 $(BUILD)/hdnet: $(TOOLOBJ) $(BUILD)/libhdnet.a
-	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS) $(MPI_LIBS)
+	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS) $(MPI_LIBS) $(TOOLLIBS)
 
 $(BUILD)/tests/%: tests/%.c $(BUILD)/libhdnet.a $(BUILD)/.deps-mmd
 	@mkdir -p $(dir $@)
@@ -175,6 +193,24 @@ tsan:
 	mkdir -p build-tsan/run && cd build-tsan/run && OMP_TOOL_LIBRARIES=$(ARCHER) OPENBLAS_NUM_THREADS=1 \
 	    TSAN_OPTIONS="halt_on_error=1 exitcode=66 ignore_noninstrumented_modules=1" HDNET_TESTDATA=$(abspath tests/data) ../tests/test_threads
 
+# `hdnet serve` in a real browser: Debian's chromium (/usr/bin/chromium) driven by playwright-core
+# from npm (tests/browser/package-lock.json). The screenshots go to SHOT and SHOT-live (docs/img/serve.png for the docs).
+SHOT ?= $(BUILD)/serve-page.png
+test-browser: hdnet
+	cd tests/browser && { [ -d node_modules/playwright-core ] || npm ci --no-audit --no-fund; }
+	HDNET=$(abspath $(BUILD)/hdnet) node tests/browser/serve_page.mjs $(abspath $(SHOT))
+
+# 4 clients relighting through `hdnet serve` for 30 s (wrk): errors, memory, requests/s, latency.
+load-test: hdnet
+	HDNET=$(abspath $(BUILD)/hdnet) sh tests/load/serve_load.sh
+
+# What the browser and load tests need besides `make deps`.
+TEST_DEPS := chromium wrk
+test-deps:
+	@if dpkg -s $(TEST_DEPS) >/dev/null 2>&1; then echo "test-deps: all installed"; else \
+	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	    $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends $(TEST_DEPS); fi
+
 bench: hdnet
 	./hdnet bench
 
@@ -201,6 +237,6 @@ install: hdnet $(BUILD)/libhdnet.so
 	if [ -n "$(PYDIR)" ]; then install -d $(DESTDIR)$(PYDIR)/hdnet && \
 	    install -m 644 python/hdnet/__init__.py $(DESTDIR)$(PYDIR)/hdnet/__init__.py; fi
 
-.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE
+.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE test-browser load-test test-deps
 .SECONDARY:
 endif

@@ -1,0 +1,203 @@
+// serve_page.mjs: the browser test of `hdnet serve` (make test-browser). Starts the server on a free
+// loopback port, drives Debian's headless chromium with playwright-core: loads the page, uploads
+// the bundled photo, drags the light on the sphere to the left and then to the right and checks
+// that the face on the canvas brightens on the side of the light (and nothing outside the faces
+// changes), moves the light with the keyboard, toggles before/after, clicks preset 1 and "Render"
+// and checks that the canvas then holds exactly the server's relight, delights, saves screenshots
+// (SHOT.png after the render, SHOT-live.png of the preview with the light on the left),
+// and checks that the page asked nothing of any other host. Prints one line per check and
+// "N passed, M failed"; exits 1 on a failure.
+//     HDNET=build/hdnet node tests/browser/serve_page.mjs SCREENSHOT.png
+import { spawn } from 'node:child_process';
+import { mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const root = resolve(dirname(fileURLToPath(import.meta.url)), '../..');
+const hdnet = process.env.HDNET || join(root, 'build/hdnet');
+const shot = resolve(process.argv[2] || join(root, 'build/serve-page.png'));
+const photoPath = join(root, 'examples/astronaut.png');
+let passed = 0, failed = 0;
+
+function check(ok, what, detail = '') {
+  if (ok) passed++;
+  else failed++;
+  console.log((ok ? 'ok     ' : 'FAILED ') + what + (detail ? ' (' + detail + ')' : ''));
+}
+
+// The server, on any free port; resolves with its base URL once it says where it listens.
+function startServer() {
+  const server = spawn(hdnet, ['serve', '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((ok, fail) => {
+    let out = '';
+    const timer = setTimeout(() => fail(new Error('the server did not start in 60 s: ' + out)), 60000);
+    server.stdout.on('data', (d) => {
+      out += d;
+      const m = /listening on (http:\/\/127\.0\.0\.1:\d+)\//.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        ok({ server, base: m[1] });
+      }
+    });
+    server.on('exit', (code) => fail(new Error('the server exited with ' + code + ': ' + out)));
+  });
+}
+
+// Mean of the red, green and blue of the #photo canvas over the left and right halves of a box.
+function halves(page, box) {
+  return page.evaluate(([x0, y0, x1, y1]) => {
+    const c = document.getElementById('photo'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    const mid = (x0 + x1) / 2, sum = [0, 0], n = [0, 0];
+    for (let y = Math.ceil(y0); y < y1; y++)
+      for (let x = Math.ceil(x0); x < x1; x++) {
+        const h = x < mid ? 0 : 1, i = 4 * (y * c.width + x);
+        sum[h] += (d[i] + d[i + 1] + d[i + 2]) / 3;
+        n[h]++;
+      }
+    return { left: sum[0] / n[0], right: sum[1] / n[1] };
+  }, box);
+}
+
+// Pixels of the canvas that differ from the uploaded photo, inside and outside a box.
+function changes(page, box) {
+  return page.evaluate(([x0, y0, x1, y1]) => {
+    const c = document.getElementById('photo'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    const b = window.hdnet.state.maps.base.data;
+    let inside = 0, outside = 0;
+    for (let p = 0; p < c.width * c.height; p++) {
+      const x = p % c.width, y = Math.floor(p / c.width);
+      if (d[4 * p] === b[4 * p] && d[4 * p + 1] === b[4 * p + 1] && d[4 * p + 2] === b[4 * p + 2]) continue;
+      if (x >= x0 - 1 && x <= x1 + 1 && y >= y0 - 1 && y <= y1 + 1) inside++;
+      else outside++;
+    }
+    return { inside, outside };
+  }, box);
+}
+
+// Drags on the sphere from its centre to a point at (fx, fy) of its radius (x right, y up).
+async function drag(page, fx, fy) {
+  const b = await page.locator('#sphere').boundingBox();
+  const cx = b.x + b.width / 2, cy = b.y + b.height / 2, r = b.width / 2 - 6;
+  const before = await page.evaluate(() => window.hdnet.state.previews);
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  await page.mouse.move(cx + fx * r, cy - fy * r, { steps: 12 });
+  await page.mouse.up();
+  await page.waitForFunction((n) => window.hdnet.state.previews > n, before);
+  await page.waitForTimeout(100); // the last frame of the drag
+}
+
+const { server, base } = await startServer();
+const profile = mkdtempSync(join(tmpdir(), 'hdnet-chromium-'));
+let context;
+try {
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: '/usr/bin/chromium',
+    headless: true,
+    viewport: { width: 1200, height: 860 },
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+  });
+  const page = context.pages()[0] || (await context.newPage());
+  const foreign = [];
+  page.on('request', (r) => { if (!r.url().startsWith(base + '/') && !r.url().startsWith('blob:')) foreign.push(r.url()); });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  page.setDefaultTimeout(120000);
+
+  await page.goto(base + '/');
+  check(await page.title() === 'hdnet relight', 'the page loads');
+  await page.waitForFunction(() => document.querySelectorAll('#presets button').length === 7);
+  check(true, 'the seven preset buttons are there');
+
+  await page.setInputFiles('#file', photoPath);
+  await page.waitForFunction(() => window.hdnet.state.maps !== null && !window.hdnet.state.busy);
+  const photo = await page.evaluate(() => window.hdnet.state.photo);
+  const box = photo.faces[0].box;
+  check(photo.width === 512 && photo.faces.length >= 1, 'the upload found the face', 'box ' + box.map(Math.round).join(','));
+  // the face's mesh reaches past the detection box: the extent of its landmarks bounds what may change
+  const lm = photo.faces.flatMap((f) => f.landmarks);
+  const mesh = [Math.min(...lm.map((p) => p[0])), Math.min(...lm.map((p) => p[1])),
+    Math.max(...lm.map((p) => p[0])), Math.max(...lm.map((p) => p[1]))];
+
+  await drag(page, -0.95, 0);
+  const lit_left = await halves(page, box);
+  const live = shot.replace(/\.png$/, '') + '-live.png';
+  await page.screenshot({ path: live }); // the preview while the light is on the left
+  console.log('screenshot: ' + live);
+  const az_left = await page.evaluate(() => window.hdnet.state.light.azimuth);
+  await drag(page, 0.95, 0);
+  const lit_right = await halves(page, box);
+  const az_right = await page.evaluate(() => window.hdnet.state.light.azimuth);
+  check(az_left < -45 && az_right > 45, 'dragging moves the light', `azimuth ${az_left.toFixed(0)} then ${az_right.toFixed(0)}`);
+  check(lit_right.right > lit_left.right + 3 && lit_right.left < lit_left.left - 3,
+    'the face relights live on the side of the light',
+    `light from the left: face left ${lit_left.left.toFixed(1)} right ${lit_left.right.toFixed(1)}; ` +
+    `from the right: left ${lit_right.left.toFixed(1)} right ${lit_right.right.toFixed(1)}`);
+  const ch = await changes(page, mesh);
+  check(ch.inside > 500 && ch.outside === 0, 'only the face changes', `${ch.inside} pixels changed within the face's landmarks, ${ch.outside} outside`);
+
+  await page.focus('#sphere');
+  const az0 = await page.evaluate(() => window.hdnet.state.light.azimuth);
+  await page.keyboard.press('ArrowLeft');
+  await page.keyboard.press('Shift+ArrowLeft');
+  const az1 = await page.evaluate(() => window.hdnet.state.light.azimuth);
+  check(Math.abs(az0 - 20 - az1) < 0.01, 'the arrow keys move the light', `azimuth ${az0.toFixed(1)} -> ${az1.toFixed(1)}`);
+
+  await page.click('#before');
+  const before = await changes(page, mesh);
+  check(before.inside === 0 && before.outside === 0, '"before" shows the photo as uploaded');
+  await page.click('#before');
+  check((await changes(page, mesh)).inside > 500, '"after" shows the relit face again');
+
+  await page.click('#presets button[data-preset="1"]');
+  check(await page.getAttribute('#presets button[data-preset="1"]', 'aria-pressed') === 'true', 'preset 1 is selected');
+  await page.click('#render');
+  await page.waitForFunction(() => window.hdnet.state.view === 'server' && !window.hdnet.state.busy);
+  // the canvas now holds the server's relight under preset 1, pixel for pixel
+  const diff = await page.evaluate(async (id) => {
+    const r = await fetch('/api/photos/' + id + '/relight', { method: 'POST', headers: { 'Content-Type': 'application/json' },
+      body: JSON.stringify({ preset: 1, brightness: 'keep' }) });
+    const bm = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+    const c = document.createElement('canvas');
+    c.width = bm.width;
+    c.height = bm.height;
+    const x = c.getContext('2d');
+    x.drawImage(bm, 0, 0);
+    const want = x.getImageData(0, 0, c.width, c.height).data;
+    const p = document.getElementById('photo'), got = p.getContext('2d').getImageData(0, 0, p.width, p.height).data;
+    let differ = 0;
+    for (let i = 0; i < want.length; i++) if (want[i] !== got[i]) differ++;
+    return differ;
+  }, photo.id);
+  check(diff === 0, '"Render" shows the server\'s exact relight', diff + ' samples differ');
+  const href = await page.getAttribute('#download', 'href');
+  check(href && href.startsWith('blob:'), 'the result can be downloaded');
+  const lightHref = await page.getAttribute('#download-light', 'href');
+  const lightText = await page.evaluate(async (h) => (await fetch(h)).text(), lightHref);
+  check(lightText.trim().split('\n').length === 9, 'the light file can be downloaded', lightHref);
+  await page.screenshot({ path: shot });
+  console.log('screenshot: ' + shot);
+
+  await page.click('#delight');
+  await page.waitForFunction(() => window.hdnet.state.result && window.hdnet.state.result.what === 'delight' &&
+    !window.hdnet.state.busy);
+  check(/delight: done/.test(await page.textContent('#status')), 'delight renders', await page.textContent('#status'));
+
+  check(foreign.length === 0, 'nothing is fetched from another host', foreign.slice(0, 3).join(' '));
+  check(errors.length === 0, 'no script errors', errors.slice(0, 3).join(' | '));
+} catch (e) {
+  check(false, 'the browser test ran to the end', e.stack || String(e));
+} finally {
+  if (context) await context.close();
+  rmSync(profile, { recursive: true, force: true });
+  const code = server.exitCode !== null ? server.exitCode : await new Promise((ok) => {
+    server.on('exit', (c) => ok(c));
+    server.kill('SIGINT');
+  });
+  check(code === 0, 'the server stops cleanly on SIGINT', 'exit ' + code);
+}
+console.log(`browser: ${passed} passed, ${failed} failed`);
+process.exit(failed ? 1 : 0);

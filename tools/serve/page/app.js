@@ -1,0 +1,494 @@
+/* app.js: the `hdnet serve` page (docs/serve.md). A photo is uploaded once; the server finds and
+ * decomposes its faces and sends four maps at the photo's size (the photo, the predicted normals,
+ * the predicted shading S and a feathered face mask). While the light is dragged the page relights
+ * on its own, per pixel, by the rule of docs/usage.md:
+ *     out = m * min(k * min(I / max(S, 0.001), 1) * max(s(N, l), 0), 1) + (1 - m) * I
+ * with s the SH shading of docs/conventions.md and k the factor that keeps the face's mean
+ * brightness. "Render" asks the server for its exact result (the Poisson-blended photo of
+ * `hdnet relight`). Nothing is loaded from anywhere but the server. */
+'use strict';
+(() => {
+  // ---------------------------------------------------------------- SH lighting (docs/conventions.md)
+  const C0 = 0.8862269254527579, C1 = 1.023326707946488, C2 = 0.8580855308097834;
+  const C3 = 0.2477079561003757, C4 = 0.4290427654048917;
+  const BAND_FACTOR = [Math.PI, 2 * Math.PI / 3, 2 * Math.PI / 3, 2 * Math.PI / 3,
+    Math.PI / 4, Math.PI / 4, Math.PI / 4, Math.PI / 4, Math.PI / 4];
+  const SHADING_FLOOR = 1e-3;
+
+  // The basis b_k(n) of a camera-frame normal: DPR's frame X = x, Y = -z, Z = y.
+  function basis(x, y, z) {
+    const X = x, Y = -z, Z = y;
+    return [C0, C1 * Y, C1 * Z, C1 * X, C2 * Y * X, C2 * Y * Z, C3 * (3 * Z * Z - 1), C2 * X * Z, C4 * (X * X - Y * Y)];
+  }
+  // s(n) = sum_k l_k b_k(n), written out (the inner loop of the preview).
+  function shade(l, x, y, z) {
+    const X = x, Y = -z, Z = y;
+    return l[0] * C0 + C1 * (l[1] * Y + l[2] * Z + l[3] * X) + C2 * (l[4] * Y * X + l[5] * Y * Z + l[7] * X * Z) +
+      l[6] * C3 * (3 * Z * Z - 1) + l[8] * C4 * (X * X - Y * Y);
+  }
+  // hd_light_from_direction: intensity * 16/17 * Y_k(d), plus ambient / c0 in l_0.
+  function lightFromDirection(azDeg, elDeg, intensity, ambient) {
+    const az = azDeg * Math.PI / 180, el = elDeg * Math.PI / 180;
+    const b = basis(Math.cos(el) * Math.sin(az), Math.sin(el), Math.cos(el) * Math.cos(az));
+    const l = b.map((v, k) => intensity * (16 / 17) * v / BAND_FACTOR[k]);
+    l[0] += ambient / C0;
+    return l;
+  }
+  // The direction a light comes from (band 1: l1, l2, l3 go with -z, y, x).
+  function directionOf(l) {
+    const x = l[3], y = l[2], z = -l[1], n = Math.hypot(x, y, z);
+    if (!(n > 0)) return { azimuth: 0, elevation: 0 };
+    return { azimuth: Math.atan2(x, z) * 180 / Math.PI, elevation: Math.asin(y / n) * 180 / Math.PI };
+  }
+
+  // ---------------------------------------------------------------- state
+  const $ = (id) => document.getElementById(id);
+  const ui = {
+    status: $('status'), drop: $('drop'), file: $('file'), view: $('view'), photo: $('photo'), overlay: $('overlay'),
+    showing: $('showing'), sphere: $('sphere'), direction: $('direction'), intensity: $('intensity'),
+    intensityValue: $('intensity-value'), ambient: $('ambient'), ambientValue: $('ambient-value'), keep: $('keep'),
+    presets: $('presets'), render: $('render'), before: $('before'), delight: $('delight'), ref: $('ref'),
+    transferLabel: $('transfer-label'), download: $('download'), downloadLight: $('download-light'), marks: $('marks'),
+  };
+  const state = {
+    photo: null,      // the upload's JSON (id, size, faces, maps)
+    maps: null,       // the decoded maps, over the masked pixels only
+    presets: [],
+    light: { kind: 'direction', azimuth: 0, elevation: 0, intensity: 1.5, ambient: 0.5, preset: -1, coeffs: null, ref: null },
+    view: 'preview',  // 'preview' (in the page), 'server' (a render), 'before' (the photo as uploaded)
+    result: null,     // { url, name, what } of the last server answer
+    previews: 0,      // frames relit in the page (for tests)
+    busy: false,
+  };
+  window.hdnet = { state, lightFromDirection, shade };
+
+  function say(text, error) {
+    ui.status.textContent = text;
+    ui.status.classList.toggle('error', !!error);
+  }
+
+  async function failure(response) {
+    try {
+      const j = await response.json();
+      return j.error || response.statusText;
+    } catch (e) {
+      return response.status + ' ' + response.statusText;
+    }
+  }
+
+  // ---------------------------------------------------------------- the light
+  function currentLight() {
+    const L = state.light;
+    if (L.kind === 'preset' || L.kind === 'coeffs') return L.coeffs;
+    return lightFromDirection(L.azimuth, L.elevation, L.intensity, L.ambient);
+  }
+
+  function lightChanged() {
+    const L = state.light;
+    ui.direction.textContent = (L.kind === 'coeffs' ? 'transferred: ' : L.kind === 'preset' ? 'preset ' + L.preset + ': ' : '') +
+      'azimuth ' + L.azimuth.toFixed(0) + '\u00b0, elevation ' + L.elevation.toFixed(0) + '\u00b0';
+    ui.sphere.setAttribute('aria-valuetext', ui.direction.textContent);
+    ui.intensityValue.textContent = L.intensity.toFixed(2);
+    ui.ambientValue.textContent = L.ambient.toFixed(2);
+    for (const b of ui.presets.querySelectorAll('button'))
+      b.setAttribute('aria-pressed', String(L.kind === 'preset' && +b.dataset.preset === L.preset));
+    let href;
+    if (L.kind === 'preset') href = '/api/light.txt?preset=' + L.preset;
+    else if (L.kind === 'coeffs') href = '/api/photos/' + L.ref + '/light.txt';
+    else href = '/api/light.txt?azimuth=' + L.azimuth.toFixed(2) + '&elevation=' + L.elevation.toFixed(2) +
+      '&intensity=' + L.intensity + '&ambient=' + L.ambient;
+    ui.downloadLight.href = href;
+    drawSphere();
+    if (state.maps) {
+      state.view = 'preview';
+      setBefore(false);
+      schedule();
+    }
+  }
+
+  function setDirection(azimuth, elevation) {
+    const L = state.light;
+    if (L.kind !== 'direction') {
+      L.kind = 'direction';
+      L.preset = -1;
+    }
+    L.azimuth = ((azimuth + 540) % 360) - 180;
+    L.elevation = Math.max(-90, Math.min(90, elevation));
+    lightChanged();
+  }
+
+  // ---------------------------------------------------------------- the sphere
+  const sphereCtx = ui.sphere.getContext('2d');
+  const sphereImage = sphereCtx.createImageData(ui.sphere.width, ui.sphere.height);
+  const R = ui.sphere.width / 2 - 6, CX = ui.sphere.width / 2, CY = ui.sphere.height / 2;
+
+  function drawSphere() {
+    const l = currentLight(), d = sphereImage.data, W = ui.sphere.width, H = ui.sphere.height;
+    for (let y = 0; y < H; y++)
+      for (let x = 0; x < W; x++) {
+        const u = (x + 0.5 - CX) / R, v = -(y + 0.5 - CY) / R, r2 = u * u + v * v, i = 4 * (y * W + x);
+        if (r2 > 1) {
+          d[i] = d[i + 1] = d[i + 2] = 0;
+          d[i + 3] = 0;
+          continue;
+        }
+        const s = Math.max(0, Math.min(1, shade(l, u, v, Math.sqrt(1 - r2)) / 2)) * 255;
+        d[i] = d[i + 1] = d[i + 2] = s;
+        d[i + 3] = 255;
+      }
+    sphereCtx.putImageData(sphereImage, 0, 0);
+    const dir = state.light.kind === 'direction' ? state.light : directionOf(l);
+    const az = dir.azimuth * Math.PI / 180, el = dir.elevation * Math.PI / 180;
+    const px = CX + Math.cos(el) * Math.sin(az) * R, py = CY - Math.sin(el) * R, front = Math.cos(el) * Math.cos(az) >= 0;
+    sphereCtx.beginPath();
+    sphereCtx.arc(px, py, 6, 0, 2 * Math.PI);
+    sphereCtx.lineWidth = 2;
+    sphereCtx.strokeStyle = '#f0b44c';
+    if (front) {
+      sphereCtx.fillStyle = '#f0b44c';
+      sphereCtx.fill();
+    }
+    sphereCtx.stroke();
+  }
+
+  // A pointer at canvas position (x, y) points at the sphere's normal there; off the sphere, at its rim.
+  function pointAt(event) {
+    const rect = ui.sphere.getBoundingClientRect();
+    const x = (event.clientX - rect.left) * ui.sphere.width / rect.width, y = (event.clientY - rect.top) * ui.sphere.height / rect.height;
+    let u = (x - CX) / R, v = -(y - CY) / R;
+    const r = Math.hypot(u, v);
+    if (r > 1) {
+      u /= r;
+      v /= r;
+    }
+    const z = Math.sqrt(Math.max(0, 1 - u * u - v * v));
+    setDirection(Math.atan2(u, z) * 180 / Math.PI, Math.asin(Math.max(-1, Math.min(1, v))) * 180 / Math.PI);
+  }
+  ui.sphere.addEventListener('pointerdown', (e) => {
+    ui.sphere.setPointerCapture(e.pointerId);
+    ui.sphere.focus();
+    pointAt(e);
+  });
+  ui.sphere.addEventListener('pointermove', (e) => {
+    if (ui.sphere.hasPointerCapture(e.pointerId)) pointAt(e);
+  });
+  ui.sphere.addEventListener('keydown', (e) => {
+    const step = e.shiftKey ? 15 : 5, L = state.light, dir = L.kind === 'direction' ? L : directionOf(currentLight());
+    const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, step], ArrowDown: [0, -step] };
+    if (moves[e.key]) setDirection(dir.azimuth + moves[e.key][0], dir.elevation + moves[e.key][1]);
+    else if (e.key === 'Home') setDirection(0, 0);
+    else if (e.key === 'Enter') render();
+    else return;
+    e.preventDefault();
+  });
+
+  ui.intensity.addEventListener('input', () => {
+    fromPresetToDirection();
+    state.light.intensity = +ui.intensity.value;
+    lightChanged();
+  });
+  ui.ambient.addEventListener('input', () => {
+    fromPresetToDirection();
+    state.light.ambient = +ui.ambient.value;
+    lightChanged();
+  });
+  ui.keep.addEventListener('change', () => lightChanged());
+  // A slider moved under a preset or a transferred light: go on from its direction.
+  function fromPresetToDirection() {
+    const L = state.light;
+    if (L.kind === 'direction') return;
+    const d = directionOf(currentLight());
+    L.kind = 'direction';
+    L.preset = -1;
+    L.azimuth = d.azimuth;
+    L.elevation = d.elevation;
+  }
+
+  async function loadPresets() {
+    const r = await fetch('/api/presets');
+    if (!r.ok) throw new Error(await failure(r));
+    const j = await r.json();
+    state.presets = j.presets;
+    for (const p of j.presets) {
+      const b = document.createElement('button');
+      b.textContent = String(p.preset);
+      b.dataset.preset = p.preset;
+      b.title = 'preset ' + p.preset + ': azimuth ' + p.azimuth.toFixed(0) + '\u00b0, elevation ' + p.elevation.toFixed(0) + '\u00b0';
+      b.setAttribute('aria-label', b.title);
+      b.setAttribute('aria-pressed', 'false');
+      b.addEventListener('click', () => {
+        const L = state.light;
+        Object.assign(L, { kind: 'preset', preset: p.preset, coeffs: p.light, azimuth: p.azimuth, elevation: p.elevation,
+          intensity: j.default_intensity, ambient: j.default_ambient });
+        ui.intensity.value = L.intensity;
+        ui.ambient.value = L.ambient;
+        lightChanged();
+      });
+      ui.presets.appendChild(b);
+    }
+  }
+
+  // ---------------------------------------------------------------- the maps and the preview
+  const photoCtx = ui.photo.getContext('2d');
+
+  async function mapPixels(url) {
+    const r = await fetch(url);
+    if (!r.ok) throw new Error(await failure(r));
+    const bitmap = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+    const c = document.createElement('canvas');
+    c.width = bitmap.width;
+    c.height = bitmap.height;
+    const ctx = c.getContext('2d', { willReadFrequently: true });
+    ctx.drawImage(bitmap, 0, 0);
+    return ctx.getImageData(0, 0, c.width, c.height);
+  }
+
+  // Keeps, for each pixel where the mask is set, what the rule needs: I, 1 / max(S, floor), m, N.
+  function prepareMaps(photo, normal, shading, mask) {
+    const W = photo.width, H = photo.height, n = W * H;
+    let count = 0;
+    for (let p = 0; p < n; p++) if (mask.data[4 * p] > 0) count++;
+    const m = { W, H, n: count, base: photo, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
+      px: new Int32Array(count), rgb: new Float32Array(3 * count), inv: new Float32Array(count), w: new Float32Array(count),
+      nrm: new Float32Array(3 * count) };
+    let j = 0;
+    for (let p = 0; p < n; p++) {
+      if (mask.data[4 * p] === 0) continue;
+      let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
+      const len = Math.hypot(x, y, z) || 1;
+      m.px[j] = p;
+      for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
+      m.inv[j] = 1 / Math.max(2 * shading.data[4 * p] / 255, SHADING_FLOOR); // the map holds S / 2
+      m.w[j] = mask.data[4 * p] / 255;
+      m.nrm[3 * j] = x / len;
+      m.nrm[3 * j + 1] = y / len;
+      m.nrm[3 * j + 2] = z / len;
+      j++;
+    }
+    return m;
+  }
+
+  function relightInPage() {
+    const m = state.maps, l = currentLight(), d = m.out.data;
+    const s = new Float32Array(m.n);
+    let target = 0, lit = 0;
+    for (let j = 0; j < m.n; j++) {
+      const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), w = m.w[j], inv = m.inv[j];
+      s[j] = t;
+      for (let c = 0; c < 3; c++) {
+        const I = m.rgb[3 * j + c];
+        target += w * I;
+        lit += w * Math.min(I * inv, 1) * t;
+      }
+    }
+    const k = ui.keep.checked && lit > 0 && target > 0 ? target / lit : 1;
+    for (let j = 0; j < m.n; j++) {
+      const p = 4 * m.px[j], w = m.w[j], inv = m.inv[j];
+      for (let c = 0; c < 3; c++) {
+        const I = m.rgb[3 * j + c];
+        d[p + c] = 255 * (w * Math.min(k * Math.min(I * inv, 1) * s[j], 1) + (1 - w) * I) + 0.5;
+      }
+    }
+    photoCtx.putImageData(m.out, 0, 0);
+    state.previews++;
+    ui.showing.textContent = 'preview (in the page)';
+  }
+
+  let frame = 0;
+  function schedule() {
+    if (frame) return;
+    frame = requestAnimationFrame(() => {
+      frame = 0;
+      if (state.maps && state.view === 'preview') relightInPage();
+    });
+  }
+
+  function drawMarks() {
+    const o = ui.overlay, ctx = o.getContext('2d');
+    ctx.clearRect(0, 0, o.width, o.height);
+    if (!state.photo || !ui.marks.checked) return;
+    const lw = Math.max(2, o.width / 300);
+    ctx.lineWidth = lw;
+    ctx.strokeStyle = '#f0b44c';
+    ctx.fillStyle = '#f0b44c';
+    ctx.font = (6 * lw) + 'px system-ui, sans-serif';
+    state.photo.faces.forEach((f, k) => {
+      const [x0, y0, x1, y1] = f.box;
+      ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+      ctx.fillText('face ' + k, x0, Math.max(6 * lw, y0 - lw));
+      for (let i = 0; i < f.landmarks.length; i += 12) ctx.fillRect(f.landmarks[i][0] - lw / 4, f.landmarks[i][1] - lw / 4, lw / 2, lw / 2);
+    });
+  }
+  ui.marks.addEventListener('change', drawMarks);
+
+  // The photo shown as large as the window allows (the canvases keep the photo's own pixels).
+  function fit() {
+    if (!state.photo) return;
+    const W = state.photo.width, H = state.photo.height;
+    const room = ui.view.parentElement.clientWidth, high = window.innerHeight - ui.view.getBoundingClientRect().top - 16;
+    const scale = Math.max(0.05, Math.min(room / W, Math.max(200, high) / H));
+    ui.photo.style.width = Math.floor(W * scale) + 'px';
+  }
+  window.addEventListener('resize', fit);
+
+  // ---------------------------------------------------------------- server calls
+  function enable(on) {
+    for (const b of [ui.render, ui.before, ui.delight]) b.disabled = !on;
+    ui.ref.disabled = !on;
+    ui.transferLabel.classList.toggle('disabled', !on);
+  }
+
+  async function uploadFile(file) {
+    const type = file.type === 'image/png' || file.type === 'image/jpeg' ? file.type :
+      /\.png$/i.test(file.name) ? 'image/png' : 'image/jpeg';
+    const r = await fetch('/api/photos', { method: 'POST', headers: { 'Content-Type': type }, body: file });
+    if (!r.ok) throw new Error(await failure(r));
+    return r.json();
+  }
+
+  async function openPhoto(file) {
+    if (!file || state.busy) return;
+    state.busy = true;
+    enable(false);
+    say('Finding and decomposing the faces of ' + file.name + '\u2026');
+    try {
+      const j = await uploadFile(file);
+      const [photo, normal, shading, mask] = await Promise.all(
+        ['photo', 'normal', 'shading', 'mask'].map((k) => mapPixels(j.maps[k])));
+      state.photo = j;
+      state.maps = prepareMaps(photo, normal, shading, mask);
+      for (const c of [ui.photo, ui.overlay]) {
+        c.width = j.width;
+        c.height = j.height;
+      }
+      ui.view.hidden = false;
+      ui.drop.classList.add('compact');
+      fit();
+      drawMarks();
+      // start from the light the model estimates for the first face
+      const f = j.faces[0];
+      Object.assign(state.light, { kind: 'direction', preset: -1, coeffs: null, azimuth: f.azimuth, elevation: f.elevation });
+      enable(true);
+      lightChanged();
+      say(j.width + ' \u00d7 ' + j.height + ', ' + j.faces.length + (j.faces.length === 1 ? ' face' : ' faces') +
+        ' (the server keeps the ' + j.max_photos + ' most recent photos). Drag the light on the sphere.');
+    } catch (e) {
+      say(file.name + ': ' + e.message, true);
+      if (state.photo) enable(true);
+    } finally {
+      state.busy = false;
+    }
+  }
+
+  async function showServerResult(response, what) {
+    if (!response.ok) throw new Error(await failure(response));
+    const blob = await response.blob();
+    const bitmap = await createImageBitmap(blob, { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+    if (state.result) URL.revokeObjectURL(state.result.url);
+    state.result = { url: URL.createObjectURL(blob), name: state.photo.id + '-' + what + '.png', what };
+    ui.download.href = state.result.url;
+    ui.download.download = state.result.name;
+    ui.download.classList.remove('disabled');
+    ui.download.removeAttribute('aria-disabled');
+    state.view = 'server';
+    setBefore(false);
+    photoCtx.drawImage(bitmap, 0, 0);
+    ui.showing.textContent = what + ' (the server\u2019s exact result)';
+  }
+
+  async function serverCall(what, url, init) {
+    if (!state.photo || state.busy) return;
+    state.busy = true;
+    say(what + ': the server is rendering the whole photo\u2026');
+    try {
+      await showServerResult(await fetch(url, Object.assign({ method: 'POST' }, init)), what);
+      say(what + ': done. Download it, or drag the light to go on.');
+    } catch (e) {
+      say(what + ': ' + e.message, true);
+    } finally {
+      state.busy = false;
+    }
+  }
+
+  function render() {
+    const L = state.light, id = state.photo && state.photo.id;
+    if (!id) return;
+    if (L.kind === 'coeffs') return serverCall('transfer', '/api/photos/' + id + '/transfer?ref=' + L.ref);
+    const body = L.kind === 'preset' ? { preset: L.preset } :
+      { azimuth: +L.azimuth.toFixed(2), elevation: +L.elevation.toFixed(2), intensity: L.intensity, ambient: L.ambient };
+    body.brightness = ui.keep.checked ? 'keep' : 'free';
+    return serverCall('relight', '/api/photos/' + id + '/relight',
+      { headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+  }
+
+  function setBefore(on) {
+    ui.before.setAttribute('aria-pressed', String(on));
+    if (!state.maps) return;
+    if (on) {
+      photoCtx.putImageData(state.maps.base, 0, 0);
+      ui.showing.textContent = 'before (the photo as uploaded)';
+    }
+  }
+
+  ui.render.addEventListener('click', render);
+  ui.delight.addEventListener('click', () => serverCall('delight', '/api/photos/' + state.photo.id + '/delight'));
+  ui.before.addEventListener('click', async () => {
+    const on = ui.before.getAttribute('aria-pressed') !== 'true';
+    setBefore(on);
+    if (on) return;
+    if (state.view === 'server' && state.result) {
+      const bitmap = await createImageBitmap(await (await fetch(state.result.url)).blob(),
+        { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+      photoCtx.drawImage(bitmap, 0, 0);
+      ui.showing.textContent = state.result.what + ' (the server\u2019s exact result)';
+    } else {
+      relightInPage();
+    }
+  });
+
+  ui.ref.addEventListener('change', async () => {
+    const file = ui.ref.files[0];
+    ui.ref.value = '';
+    if (!file || !state.photo || state.busy) return;
+    state.busy = true;
+    say('Estimating the light of ' + file.name + '\u2026');
+    let j;
+    try {
+      j = await uploadFile(file);
+    } catch (e) {
+      say(file.name + ': ' + e.message, true);
+      state.busy = false;
+      return;
+    }
+    state.busy = false;
+    const f = j.faces[0];
+    Object.assign(state.light, { kind: 'coeffs', preset: -1, coeffs: f.light, ref: j.id, azimuth: f.azimuth, elevation: f.elevation });
+    lightChanged();
+    await serverCall('transfer', '/api/photos/' + state.photo.id + '/transfer?ref=' + j.id);
+  });
+
+  // ---------------------------------------------------------------- choosing and dropping photos
+  ui.file.addEventListener('change', () => {
+    openPhoto(ui.file.files[0]);
+    ui.file.value = '';
+  });
+  ui.drop.addEventListener('keydown', (e) => {
+    if (e.key === 'Enter' || e.key === ' ') {
+      ui.file.click();
+      e.preventDefault();
+    }
+  });
+  document.addEventListener('dragover', (e) => {
+    e.preventDefault();
+    ui.drop.classList.add('over');
+  });
+  document.addEventListener('dragleave', () => ui.drop.classList.remove('over'));
+  document.addEventListener('drop', (e) => {
+    e.preventDefault();
+    ui.drop.classList.remove('over');
+    if (e.dataTransfer.files.length) openPhoto(e.dataTransfer.files[0]);
+  });
+
+  lightChanged();
+  loadPresets().catch((e) => say('presets: ' + e.message, true));
+})();

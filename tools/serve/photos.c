@@ -1,0 +1,293 @@
+/* photos.c: the photos `hdnet serve` keeps in memory. An upload is decoded (its header size checked
+ * against the pixel cap first), every face is aligned and decomposed once, and the maps the page
+ * relights with are built at the photo's size: each face's predicted normals and shading, brought
+ * from the model's size to the face texture's (normals renormalised, as hd_relight does) and
+ * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
+ * faces and falls to 0 over a few pixels at their edge (the server's render Poisson-blends there;
+ * the page's preview feathers instead). The store keeps at most N photos and evicts the least
+ * recently used; a photo in use by a request is freed only when that request lets it go. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include "core/core.h"
+#include "serve.h"
+
+const char *const hd_map_names[HD_MAPS] = {"photo", "normal", "shading", "mask"};
+
+void hd_serve_photo_free(hd_serve_photo *p)
+{
+    if (!p) return;
+    hd_image_free(&p->image);
+    free(p->faces);
+    for (int m = 0; m < HD_MAPS; m++) hd_blob_free(&p->maps[m]);
+    free(p);
+}
+
+/* In place: each pixel's vector over its length (0 where it has none). */
+static void renormalise(hd_image *n)
+{
+    const size_t HW = (size_t)n->width * (size_t)n->height;
+    float *x = n->data, *y = x + HW, *z = y + HW;
+    for (size_t p = 0; p < HW; p++) {
+        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
+        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
+        x[p] *= inv;
+        y[p] *= inv;
+        z[p] *= inv;
+    }
+}
+
+/* One pass of a box filter of radius r along rows (dx = 1) or columns, edges clamped. */
+static void box_pass(const float *src, float *dst, int W, int H, int r, int along_rows)
+{
+    const int n = along_rows ? W : H, lines = along_rows ? H : W;
+    const size_t step = along_rows ? 1 : (size_t)W, line_step = along_rows ? (size_t)W : 1;
+    for (int l = 0; l < lines; l++) {
+        const float *s = src + (size_t)l * line_step;
+        float *d = dst + (size_t)l * line_step;
+        double acc = 0.0;
+        for (int i = -r; i <= r; i++) acc += s[(size_t)(i < 0 ? 0 : i >= n ? n - 1 : i) * step];
+        for (int i = 0; i < n; i++) {
+            d[(size_t)i * step] = (float)(acc / (2 * r + 1));
+            int out = i - r, in = i + r + 1;
+            acc -= s[(size_t)(out < 0 ? 0 : out) * step];
+            acc += s[(size_t)(in >= n ? n - 1 : in) * step];
+        }
+    }
+}
+
+/* mask = coverage * blur(coverage): 1 well inside, about 1/2 at the edge, 0 outside. */
+static hd_status feather(hd_image *mask, int r)
+{
+    const int W = mask->width, H = mask->height;
+    hd_image a = {0}, b = {0};
+    hd_status st = hd_image_alloc(&a, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&b, W, H, 1);
+    if (st == HD_OK) {
+        box_pass(mask->data, a.data, W, H, r, 1);
+        box_pass(a.data, b.data, W, H, r, 0);
+        for (size_t p = 0; p < (size_t)W * H; p++) mask->data[p] *= b.data[p];
+    }
+    hd_image_free(&a);
+    hd_image_free(&b);
+    return st;
+}
+
+/* Adds face f's normals and shading (decomposition d) to the photo-sized maps where its warp
+ * covers; a later face overwrites an earlier one, as hd_relight_photo blends them in order. */
+static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, hd_image *normal,
+                               hd_image *shading, hd_image *mask)
+{
+    hd_image n_tex = {0}, s_tex = {0}, n_ph = {0}, s_ph = {0}, cover = {0}, cover2 = {0};
+    hd_status st = hd_image_resize(&d->normal, f->size, f->size, &n_tex);
+    if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
+    if (st == HD_OK) {
+        renormalise(&n_tex);
+        st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
+    }
+    if (st == HD_OK) st = hd_warp_back(f, &s_tex, &f->mask, &s_ph, &cover2);
+    if (st == HD_OK) {
+        renormalise(&n_ph);
+        const size_t HW = (size_t)normal->width * normal->height;
+        for (size_t p = 0; p < HW; p++) {
+            if (cover.data[p] <= 0.0f) continue;
+            for (int c = 0; c < 3; c++) normal->data[c * HW + p] = n_ph.data[c * HW + p];
+            shading->data[p] = s_ph.data[p];
+            mask->data[p] = 1.0f;
+        }
+    }
+    hd_image_free(&n_tex);
+    hd_image_free(&s_tex);
+    hd_image_free(&n_ph);
+    hd_image_free(&s_ph);
+    hd_image_free(&cover);
+    hd_image_free(&cover2);
+    return st;
+}
+
+/* The four maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces),
+ * shading as s / 2, the feathered mask. */
+static hd_status make_maps(hd_serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
+{
+    const int W = p->width, H = p->height;
+    hd_image normal = {0}, shading = {0}, mask = {0}, encoded = {0};
+    hd_status st = hd_image_alloc(&normal, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&shading, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&mask, W, H, 1);
+    float face_side = 0.0f;
+    for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
+        st = add_face_maps(&faces[k], &ds[k], &normal, &shading, &mask);
+        float side = fminf(faces[k].box[2] - faces[k].box[0], faces[k].box[3] - faces[k].box[1]);
+        if (side > face_side) face_side = side;
+    }
+    if (st == HD_OK) st = hd_normal_encode(&normal, &mask, &encoded);
+    if (st == HD_OK) st = feather(&mask, (int)fmaxf(2.0f, roundf(0.02f * face_side)));
+    if (st == HD_OK) {
+        for (size_t q = 0; q < (size_t)W * H; q++) shading.data[q] *= 0.5f;
+        st = hd_picture_encode_png(&p->image, &p->maps[HD_MAP_PHOTO]);
+    }
+    if (st == HD_OK) st = hd_picture_encode_png(&encoded, &p->maps[HD_MAP_NORMAL]);
+    if (st == HD_OK) st = hd_picture_encode_png(&shading, &p->maps[HD_MAP_SHADING]);
+    if (st == HD_OK) st = hd_picture_encode_png(&mask, &p->maps[HD_MAP_MASK]);
+    hd_image_free(&normal);
+    hd_image_free(&shading);
+    hd_image_free(&mask);
+    hd_image_free(&encoded);
+    return st;
+}
+
+hd_status hd_serve_photo_make(hd_engine *e, const unsigned char *data, size_t n, long max_pixels,
+                              hd_serve_photo **out)
+{
+    *out = NULL;
+    const char *what = "upload";
+    long w = 0, h = 0;
+    hd_status st = hd_picture_probe(data, n, what, &w, &h);
+    if (st != HD_OK) return st;
+    if (w <= 0 || h <= 0) return hd_fail(HD_ERR_FORMAT, "%s: image size %ldx%ld is empty", what, w, h);
+    if ((double)w * (double)h > (double)max_pixels)
+        return hd_fail(HD_ERR_RANGE, "%s: %ldx%ld is %.0f pixels, over the limit of %ld (--max-pixels)", what, w, h,
+                       (double)w * (double)h, max_pixels);
+    hd_serve_photo *p = hd_calloc(1, sizeof *p);
+    if (!p) return HD_ERR_NOMEM;
+    st = hd_picture_decode(data, n, what, &p->image);
+    if (st != HD_OK) {
+        free(p);
+        return st;
+    }
+    p->width = p->image.width;
+    p->height = p->image.height;
+    hd_aligned_face *faces = NULL;
+    hd_decomposition *ds = NULL;
+    int nfaces = 0;
+    pthread_mutex_lock(&e->lock);
+    st = hd_photo_faces(e->aligner, e->model, &p->image, &faces, &nfaces);
+    if (st == HD_OK && !(ds = hd_calloc((size_t)nfaces, sizeof *ds))) st = HD_ERR_NOMEM;
+    for (int k = 0; k < nfaces && st == HD_OK; k++) st = hd_model_decompose(e->model, &faces[k].texture, 1, &ds[k]);
+    pthread_mutex_unlock(&e->lock);
+    if (st == HD_OK && !(p->faces = hd_calloc((size_t)nfaces, sizeof *p->faces))) st = HD_ERR_NOMEM;
+    if (st == HD_OK) {
+        p->nfaces = nfaces;
+        for (int k = 0; k < nfaces; k++) {
+            hd_serve_face *sf = &p->faces[k];
+            memcpy(sf->box, faces[k].box, sizeof sf->box);
+            sf->score = faces[k].score;
+            for (int i = 0; i < HD_FACE_LANDMARKS; i++) {
+                sf->landmarks[i][0] = faces[k].landmarks[i][0];
+                sf->landmarks[i][1] = faces[k].landmarks[i][1];
+            }
+            memcpy(sf->light, ds[k].light, sizeof sf->light);
+        }
+        st = make_maps(p, faces, ds);
+    }
+    for (int k = 0; ds && k < nfaces; k++) hd_decomposition_free(&ds[k]);
+    free(ds);
+    hd_aligned_faces_free(faces, nfaces);
+    if (st != HD_OK) {
+        hd_serve_photo_free(p);
+        return st;
+    }
+    *out = p;
+    return HD_OK;
+}
+
+/* ---------------------------------------------------------------- the store */
+
+hd_status hd_store_init(hd_store *s, int max)
+{
+    memset(s, 0, sizeof *s);
+    if (max < 1) return hd_fail(HD_ERR_ARG, "the store holds at least one photo (asked for %d)", max);
+    if (!(s->slots = hd_calloc((size_t)max, sizeof *s->slots))) return HD_ERR_NOMEM;
+    if (pthread_mutex_init(&s->lock, NULL) != 0) {
+        free(s->slots);
+        return hd_fail(HD_ERR_NOMEM, "cannot create a lock");
+    }
+    s->max = max;
+    return HD_OK;
+}
+
+void hd_store_free(hd_store *s)
+{
+    if (!s->slots) return;
+    for (int i = 0; i < s->count; i++) hd_serve_photo_free(s->slots[i]);
+    free(s->slots);
+    pthread_mutex_destroy(&s->lock);
+    memset(s, 0, sizeof *s);
+}
+
+/* Takes slot i out (the lock held); frees the photo unless a request still holds it. */
+static void drop_slot(hd_store *s, int i)
+{
+    hd_serve_photo *p = s->slots[i];
+    s->slots[i] = s->slots[--s->count];
+    p->evicted = 1;
+    if (p->refs == 0) hd_serve_photo_free(p);
+}
+
+void hd_store_add(hd_store *s, hd_serve_photo *p, char *evicted_id)
+{
+    uint64_t r = 0;
+    if (getrandom(&r, sizeof r, 0) != (ssize_t)sizeof r) r = (uint64_t)(hd_seconds() * 1e9);
+    pthread_mutex_lock(&s->lock);
+    r ^= (uint64_t)++s->clock << 1; /* distinct even if getrandom failed twice in a nanosecond */
+    snprintf(p->id, sizeof p->id, "%016llx", (unsigned long long)r);
+    if (evicted_id) evicted_id[0] = 0;
+    if (s->count == s->max) {
+        int oldest = 0;
+        for (int i = 1; i < s->count; i++)
+            if (s->slots[i]->last_used < s->slots[oldest]->last_used) oldest = i;
+        if (evicted_id) memcpy(evicted_id, s->slots[oldest]->id, sizeof p->id);
+        drop_slot(s, oldest);
+        s->evictions++;
+    }
+    p->last_used = s->clock;
+    s->slots[s->count++] = p;
+    pthread_mutex_unlock(&s->lock);
+}
+
+hd_serve_photo *hd_store_get(hd_store *s, const char *id)
+{
+    hd_serve_photo *found = NULL;
+    pthread_mutex_lock(&s->lock);
+    for (int i = 0; i < s->count; i++)
+        if (strcmp(s->slots[i]->id, id) == 0) {
+            found = s->slots[i];
+            found->refs++;
+            found->last_used = ++s->clock;
+            break;
+        }
+    pthread_mutex_unlock(&s->lock);
+    return found;
+}
+
+void hd_store_release(hd_store *s, hd_serve_photo *p)
+{
+    if (!p) return;
+    pthread_mutex_lock(&s->lock);
+    int gone = --p->refs == 0 && p->evicted;
+    pthread_mutex_unlock(&s->lock);
+    if (gone) hd_serve_photo_free(p);
+}
+
+int hd_store_remove(hd_store *s, const char *id)
+{
+    int removed = 0;
+    pthread_mutex_lock(&s->lock);
+    for (int i = 0; i < s->count; i++)
+        if (strcmp(s->slots[i]->id, id) == 0) {
+            drop_slot(s, i);
+            removed = 1;
+            break;
+        }
+    pthread_mutex_unlock(&s->lock);
+    return removed;
+}
+
+int hd_store_count(hd_store *s)
+{
+    pthread_mutex_lock(&s->lock);
+    int n = s->count;
+    pthread_mutex_unlock(&s->lock);
+    return n;
+}
