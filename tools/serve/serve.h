@@ -29,12 +29,11 @@ hd_picture_kind hd_picture_sniff(const unsigned char *data, size_t n);
  * frame header); HD_ERR_FORMAT when the header is missing or malformed. `what` names the
  * picture in errors. */
 hd_status hd_picture_probe(const unsigned char *data, size_t n, const char *what, long *width, long *height);
-/* Decodes a PNG or JPEG held in memory to 3 channels, with the same samples hd_image_read_as(path,
- * 3) gives for the same bytes in a file (PNG: 8/16 bit, gray, palette, alpha dropped; JPEG: gray
- * or RGB); truncated or corrupt data is HD_ERR_FORMAT. */
+/* Decodes a PNG or JPEG held in memory to 3 channels (hd_image_decode, then converted as
+ * hd_image_read_as(path, 3) does); truncated or corrupt data is HD_ERR_FORMAT. */
 hd_status hd_picture_decode(const unsigned char *data, size_t n, const char *what, hd_image *rgb);
-/* Encodes an image (1-4 channels) as an 8-bit PNG in memory, as hd_image_write_png(path, img, 8)
- * writes it to a file (same samples, same compression). */
+/* Encodes an image (1-4 channels) as an 8-bit PNG in memory (hd_image_encode: the bytes
+ * hd_image_write puts in a .png file). */
 hd_status hd_picture_encode_png(const hd_image *img, hd_blob *png);
 
 /* ------------------------------------------------------------ the model behind a lock (engine.c) */
