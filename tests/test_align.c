@@ -174,6 +174,19 @@ static void test_round_trip_and_normals(void)
     printf("round trip (frontal, 256): PSNR %.1f dB over %ld pixels\n", psnr, n);
     CHECK(psnr > 30);
     CHECK(n > 15000);
+    /* an aligner warps back on the mesh it loaded once: the same pixels */
+    hd_aligner *aligner = NULL;
+    CHECK(hd_aligner_load(&aligner) == HD_OK);
+    if (aligner) {
+        hd_image w2 = {0}, c2 = {0};
+        CHECK(hd_aligner_warp_back(aligner, &face, &face.texture, NULL, &w2, &c2) == HD_OK);
+        size_t np = (size_t)photo.width * photo.height;
+        CHECK(w2.data && c2.data && memcmp(w2.data, warped.data, 3 * np * sizeof(float)) == 0 &&
+              memcmp(c2.data, coverage.data, np * sizeof(float)) == 0);
+        hd_image_free(&w2);
+        hd_image_free(&c2);
+        hd_aligner_free(aligner);
+    }
     hd_image_free(&warped);
     hd_image_free(&coverage);
 

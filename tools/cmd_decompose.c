@@ -198,7 +198,8 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
         if (st == HD_OK) st = write_outputs(&fj, &d[k], &mask, &sheets[k]);
         free(fj.name);
         hd_image_free(&mask);
-        if (st == HD_OK) st = hd_warp_back_blend(&faces[k], &d[k].reconstruction, HD_WARP_REPLACE, 0, &photo, NULL);
+        if (st == HD_OK)
+            st = hd_aligner_warp_back_blend(aligner, &faces[k], &d[k].reconstruction, HD_WARP_REPLACE, 0, &photo, NULL);
         if (st == HD_OK) ++*nfaces;
     }
     if (st == HD_OK) {

@@ -165,8 +165,8 @@ static float sample_bilinear(const float *src, int w, int h, float px, float py)
     return (1 - ay) * top + ay * bot;
 }
 
-hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
-                        hd_aligned_face *face)
+hd_status hd_align_face_on(const hd_mesh *canonical, const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3],
+                           int size, hd_aligned_face *face)
 {
     memset(face, 0, sizeof *face);
     if (!photo || !photo->data || photo->channels != 3 || photo->width < 1 || photo->height < 1)
@@ -193,18 +193,17 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
     if (!(face_width >= 1.0f) || !(face->box[3] - face->box[1] >= 1.0f))
         return hd_fail(HD_ERR_RANGE, "align: the landmarks span less than a pixel");
 
-    hd_mesh mesh;
-    hd_status st = hd_mesh_load_canonical(&mesh);
-    if (st) return st;
+    const hd_mesh *mesh = canonical;
+    hd_status st;
     hd_uv_raster uvr = {0};
     hd_photo_raster pr = {0};
     float *vn = NULL;
-    if ((st = hd_align_fit(&mesh, face))) goto done;
-    if ((st = hd_mesh_uv_raster(&mesh, size, &uvr))) goto done;
-    if ((st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign, photo->width,
+    if ((st = hd_align_fit(mesh, face))) goto done;
+    if ((st = hd_mesh_uv_raster(mesh, size, &uvr))) goto done;
+    if ((st = hd_photo_raster_build(mesh, (const float (*)[3])face->landmarks, face->depth_sign, photo->width,
                                     photo->height, &pr)))
         goto done;
-    if (!(vn = hd_malloc((size_t)mesh.nv * 3 * sizeof *vn))) {
+    if (!(vn = hd_malloc((size_t)mesh->nv * 3 * sizeof *vn))) {
         st = HD_ERR_NOMEM;
         goto done;
     }
@@ -212,8 +211,8 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
         (st = hd_image_alloc(&face->normal, size, size, 3)))
         goto done;
     /* Vertex normals of the fitted canonical mesh: a similarity rotates them by R. */
-    hd_mesh_vertex_normals(&mesh, mesh.pos, vn);
-    for (int i = 0; i < mesh.nv; i++) {
+    hd_mesh_vertex_normals(mesh, mesh->pos, vn);
+    for (int i = 0; i < mesh->nv; i++) {
         float n[3], *R = face->rotation;
         for (int k = 0; k < 3; k++) n[k] = R[3 * k] * vn[3 * i] + R[3 * k + 1] * vn[3 * i + 1] + R[3 * k + 2] * vn[3 * i + 2];
         memcpy(&vn[3 * i], n, sizeof n);
@@ -229,7 +228,7 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
             int t = uvr.tri[i];
             if (t < 0) continue;
             const float *b = &uvr.bary[3 * i];
-            const int *v = &mesh.tri[3 * t];
+            const int *v = &mesh->tri[3 * t];
             /* the texel's place in the photo: p = sum_k b_k L_{v_k} */
             float px = 0, py = 0, pz = 0, n[3] = {0, 0, 0};
             for (int k = 0; k < 3; k++) {
@@ -243,7 +242,7 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
             float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             if (!(len > 0)) continue;
             for (int j = 0; j < 3; j++) n[j] /= len;
-            int visible = n[2] > 0 && hd_landmark_tri_front(&mesh, (const float (*)[3])face->landmarks, t) &&
+            int visible = n[2] > 0 && hd_landmark_tri_front(mesh, (const float (*)[3])face->landmarks, t) &&
                           px >= 0 && py >= 0 && px <= photo->width && py <= photo->height;
             if (visible) {
                 /* occlusion: the front-most triangle under the texel's photo position, its plane's
@@ -254,7 +253,7 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
                 if (qx >= 0 && qy >= 0) {
                     int t2 = pr.tri[(size_t)qy * pr.width + qx];
                     /* triangles sharing a vertex with t are the same stretch of surface */
-                    const int *v2 = t2 >= 0 ? &mesh.tri[3 * t2] : NULL;
+                    const int *v2 = t2 >= 0 ? &mesh->tri[3 * t2] : NULL;
                     int neighbour = v2 && (v2[0] == v[0] || v2[0] == v[1] || v2[0] == v[2] || v2[1] == v[0] ||
                                            v2[1] == v[1] || v2[1] == v[2] || v2[2] == v[0] || v2[2] == v[1] ||
                                            v2[2] == v[2]);
@@ -280,7 +279,18 @@ done:
     free(vn);
     hd_uv_raster_free(&uvr);
     hd_photo_raster_free(&pr);
-    hd_mesh_free(&mesh);
     if (st) hd_aligned_face_free(face);
+    return st;
+}
+
+hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
+                        hd_aligned_face *face)
+{
+    memset(face, 0, sizeof *face);
+    hd_mesh mesh;
+    hd_status st = hd_mesh_load_canonical(&mesh);
+    if (st) return st;
+    st = hd_align_face_on(&mesh, photo, landmarks, size, face);
+    hd_mesh_free(&mesh);
     return st;
 }

@@ -10,6 +10,7 @@
 #include "core/core.h"
 #include "align/face_detect.h"
 #include "align/face_landmarks.h"
+#include "align/photo_raster.h"
 
 #define WARP_MAGIC "hdnet-warp"
 #define WARP_VERSION 1
@@ -196,7 +197,11 @@ struct hd_aligner {
     pthread_mutex_t lock; /* guards idle */
     align_runner *idle;
     float min_score, min_face; /* detection settings (hd_aligner_set_detection) */
+    hd_mesh canonical; /* the canonical face mesh, loaded once, read-only: unwarp and warp back stand on it */
+    int have_canonical;
 };
+
+const hd_mesh *hd_aligner_mesh(const hd_aligner *aligner) { return &aligner->canonical; }
 
 static void runner_free(align_runner *r)
 {
@@ -230,6 +235,7 @@ hd_status hd_aligner_load(hd_aligner **aligner)
     a->min_score = HD_DETECT_MIN_SCORE;
     a->min_face = HD_DETECT_MIN_FACE;
     hd_status st = runner_load(&a->idle);
+    if (!st && !(st = hd_mesh_load_canonical(&a->canonical))) a->have_canonical = 1;
     if (st) {
         hd_aligner_free(a);
         return st;
@@ -259,10 +265,12 @@ void hd_aligner_free(hd_aligner *aligner)
         runner_free(r);
     }
     pthread_mutex_destroy(&aligner->lock);
+    if (aligner->have_canonical) hd_mesh_free(&aligner->canonical);
     free(aligner);
 }
 
-static hd_status runner_run(align_runner *runner, float min_score, float min_face, const hd_image *photo, int size,
+static hd_status runner_run(align_runner *runner, const hd_mesh *canonical, float min_score, float min_face,
+                            const hd_image *photo, int size,
                             hd_aligned_face **faces, int *count);
 
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
@@ -277,7 +285,7 @@ hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, h
     pthread_mutex_unlock(&aligner->lock);
     hd_status st = r ? HD_OK : runner_load(&r);
     if (st) return st;
-    st = runner_run(r, aligner->min_score, aligner->min_face, photo, size, faces, count);
+    st = runner_run(r, &aligner->canonical, aligner->min_score, aligner->min_face, photo, size, faces, count);
     pthread_mutex_lock(&aligner->lock);
     r->next = aligner->idle;
     aligner->idle = r;
@@ -297,7 +305,8 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     return st;
 }
 
-static hd_status runner_run(align_runner *aligner, float min_score, float min_face, const hd_image *photo, int size,
+static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, float min_score, float min_face,
+                            const hd_image *photo, int size,
                             hd_aligned_face **faces, int *count)
 {
     *faces = NULL;
@@ -338,7 +347,7 @@ static hd_status runner_run(align_runner *aligner, float min_score, float min_fa
             dropped++;
             continue;
         }
-        if (fs == HD_OK) fs = hd_align_face(p3, (const float (*)[3])landmarks, size, &out[*count]);
+        if (fs == HD_OK) fs = hd_align_face_on(canonical, p3, (const float (*)[3])landmarks, size, &out[*count]);
         if (fs != HD_OK) {
             last = fs;
             continue;

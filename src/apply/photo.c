@@ -72,12 +72,12 @@ hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image 
         st = hd_model_decompose(model, &f->texture, 1, &d);
         for (int i = 0; i < count && st == HD_OK; i++) {
             st = hd_relight(&f->texture, &d, &f->mask, lights[i], brightness, &tex_out);
-            if (st == HD_OK) st = hd_warp_back_blend(f, &tex_out, HD_WARP_CHANGE, 0, &relit[i], NULL);
+            if (st == HD_OK) st = hd_aligner_warp_back_blend(aligner, f, &tex_out, HD_WARP_CHANGE, 0, &relit[i], NULL);
             hd_image_free(&tex_out);
         }
         if (st == HD_OK && delit) {
             st = hd_delight(&f->texture, &d, &f->mask, &tex_out);
-            if (st == HD_OK) st = hd_warp_back_blend(f, &tex_out, HD_WARP_CHANGE, 0, delit, NULL);
+            if (st == HD_OK) st = hd_aligner_warp_back_blend(aligner, f, &tex_out, HD_WARP_CHANGE, 0, delit, NULL);
             hd_image_free(&tex_out);
         }
         hd_decomposition_free(&d);

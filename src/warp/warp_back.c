@@ -194,21 +194,19 @@ static hd_status check_texture(const hd_image *texture, const hd_image *tex_mask
     return HD_OK;
 }
 
-hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
-                       hd_image *warped, hd_image *coverage)
+hd_status hd_warp_back_on(const hd_mesh *mesh, const hd_aligned_face *face, const hd_image *texture,
+                          const hd_image *tex_mask, hd_image *warped, hd_image *coverage)
 {
     memset(warped, 0, sizeof *warped);
     memset(coverage, 0, sizeof *coverage);
     hd_status st = check_face(face);
     if (!st) st = check_texture(texture, tex_mask);
     if (st) return st;
-    hd_mesh mesh;
-    if ((st = hd_mesh_load_canonical(&mesh))) return st;
     hd_photo_raster r;
     hd_image ww = {0}, cw = {0};
-    st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign,
+    st = hd_photo_raster_build(mesh, (const float (*)[3])face->landmarks, face->depth_sign,
                                face->photo_width, face->photo_height, &r);
-    if (!st && r.width > 0 && r.height > 0) st = warp_window(face, &mesh, &r, texture, tex_mask, &ww, &cw);
+    if (!st && r.width > 0 && r.height > 0) st = warp_window(face, mesh, &r, texture, tex_mask, &ww, &cw);
     if (!st) st = hd_image_alloc(warped, face->photo_width, face->photo_height, texture->channels);
     if (!st) st = hd_image_alloc(coverage, face->photo_width, face->photo_height, 1);
     if (!st && ww.data) {
@@ -227,7 +225,6 @@ hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, con
     hd_image_free(&ww);
     hd_image_free(&cw);
     hd_photo_raster_free(&r);
-    hd_mesh_free(&mesh);
     return st;
 }
 
@@ -245,8 +242,8 @@ static hd_status texture_change(const hd_aligned_face *face, const hd_image *tex
     return HD_OK;
 }
 
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode, double tolerance,
-                             hd_image *photo, hd_poisson_report *report)
+hd_status hd_warp_back_blend_on(const hd_mesh *mesh, const hd_aligned_face *face, const hd_image *texture,
+                                hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report)
 {
     if (report) memset(report, 0, sizeof *report);
     hd_status st = check_face(face);
@@ -264,17 +261,12 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
         if ((st = texture_change(face, texture, &change))) return st;
         texture = &change;
     }
-    hd_mesh mesh;
-    if ((st = hd_mesh_load_canonical(&mesh))) {
-        hd_image_free(&change);
-        return st;
-    }
     hd_photo_raster r;
     hd_image warped = {0}, coverage = {0}, region = {0};
-    st = hd_photo_raster_build(&mesh, (const float (*)[3])face->landmarks, face->depth_sign,
+    st = hd_photo_raster_build(mesh, (const float (*)[3])face->landmarks, face->depth_sign,
                                face->photo_width, face->photo_height, &r);
     int empty = !st && (r.width < 3 || r.height < 3); /* the face is (almost) outside the photo */
-    if (!st && !empty) st = warp_window(face, &mesh, &r, texture, NULL, &warped, &coverage);
+    if (!st && !empty) st = warp_window(face, mesh, &r, texture, NULL, &warped, &coverage);
     if (!st && !empty) st = hd_image_alloc(&region, r.width, r.height, 1);
     if (!st && !empty) {
         size_t wplane = (size_t)r.width * r.height, pplane = (size_t)photo->width * photo->height;
@@ -305,6 +297,44 @@ hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *textur
     hd_image_free(&coverage);
     hd_image_free(&region);
     hd_photo_raster_free(&r);
+    return st;
+}
+
+/* ---------------------------------------------------------------- the canonical mesh: the aligner's, or loaded per call */
+
+hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
+                       hd_image *warped, hd_image *coverage)
+{
+    memset(warped, 0, sizeof *warped);
+    memset(coverage, 0, sizeof *coverage);
+    hd_mesh mesh;
+    hd_status st = hd_mesh_load_canonical(&mesh);
+    if (st) return st;
+    st = hd_warp_back_on(&mesh, face, texture, tex_mask, warped, coverage);
     hd_mesh_free(&mesh);
     return st;
+}
+
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode, double tolerance,
+                             hd_image *photo, hd_poisson_report *report)
+{
+    if (report) memset(report, 0, sizeof *report);
+    hd_mesh mesh;
+    hd_status st = hd_mesh_load_canonical(&mesh);
+    if (st) return st;
+    st = hd_warp_back_blend_on(&mesh, face, texture, mode, tolerance, photo, report);
+    hd_mesh_free(&mesh);
+    return st;
+}
+
+hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage)
+{
+    return hd_warp_back_on(hd_aligner_mesh(aligner), face, texture, tex_mask, warped, coverage);
+}
+
+hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report)
+{
+    return hd_warp_back_blend_on(hd_aligner_mesh(aligner), face, texture, mode, tolerance, photo, report);
 }
