@@ -1,73 +1,97 @@
-/* cli.h: what every hdnet command shares: the option table that both parses the command line and
- * prints --help, the command registry, and error reporting with exit codes
- * (0 success, 1 the work failed: bad data, I/O, numbers; 2 the command line was wrong). */
-#ifndef HD_CLI_H
-#define HD_CLI_H
+/* cli.h: what every hdnet command shares, under the CLI's own prefix (cli_, not the library's
+ * hd_): the option table that both parses the command line and prints --help, the command
+ * registry, and error reporting with exit codes (0 success, 1 the work failed: bad data, I/O,
+ * numbers; 2 the command line was wrong). */
+#ifndef CLI_H
+#define CLI_H
 
 #include <stdio.h>
 #include "hdnet.h"
 
 /* Each tools/cmd_*.c registers its command at file scope with a line starting with
- * HD_COMMAND("name", function, "one-line summary"); the Makefile collects those lines. */
-#define HD_COMMAND(name, fn, summary) int fn(int argc, char **argv);
+ * CLI_COMMAND("name", function, "one-line summary"); the Makefile collects those lines. */
+#define CLI_COMMAND(name, fn, summary) int fn(int argc, char **argv);
 
-enum { HD_EXIT_OK = 0, HD_EXIT_FAIL = 1, HD_EXIT_USAGE = 2 };
+enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
 
-typedef enum hd_opt_kind {
-    HD_OPT_FLAG,   /* int, set to 1 */
-    HD_OPT_INT,    /* int */
-    HD_OPT_FLOAT,  /* float */
-    HD_OPT_STRING, /* const char * */
-    HD_OPT_FLOATS  /* hd_opt_floats: comma-separated floats, e.g. --dir 30,10 */
-} hd_opt_kind;
+typedef enum cli_opt_kind {
+    CLI_OPT_FLAG,   /* int, set to 1 */
+    CLI_OPT_INT,    /* int */
+    CLI_OPT_FLOAT,  /* float */
+    CLI_OPT_STRING, /* const char * */
+    CLI_OPT_FLOATS  /* cli_opt_floats: comma-separated floats, e.g. --dir 30,10 */
+} cli_opt_kind;
 
-typedef struct hd_opt_floats {
+typedef struct cli_opt_floats {
     int count;     /* parsed so far (0 when absent) */
     int max;       /* capacity of v, set by the command */
     float v[16];
-} hd_opt_floats;
+} cli_opt_floats;
 
-typedef struct hd_opt {
+typedef struct cli_opt {
     const char *name;  /* long name without dashes: "light" for --light */
     char short_name;   /* 'o' for -o, or 0 */
-    hd_opt_kind kind;
+    cli_opt_kind kind;
     void *value;       /* where the parsed value goes */
     const char *metavar;
     const char *help;  /* the default, if any, is said here */
-} hd_opt;
+} cli_opt;
 
-typedef struct hd_cmd_spec {
+typedef struct cli_cmd_spec {
     const char *name;        /* "light" */
     const char *usage;       /* after "hdnet light ": "[options] --dir AZ,EL -o light.txt" */
     const char *description; /* a paragraph printed under the usage */
-    const hd_opt *opts;      /* terminated by an entry with name == NULL */
+    const cli_opt *opts;      /* terminated by an entry with name == NULL */
     int positional_min, positional_max; /* max < 0: unlimited */
-} hd_cmd_spec;
+} cli_cmd_spec;
 
 /* Parses argv (argv[0] is the command name). Returns 0 to go on, with the positional arguments
  * collected in *positional (argv order; free with free()); otherwise the exit code to return:
- * HD_EXIT_OK after --help, HD_EXIT_USAGE after a usage error (message printed). */
-int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
+ * CLI_EXIT_OK after --help, CLI_EXIT_USAGE after a usage error (message printed). */
+int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
                   int *exit_code);
-void hd_opts_help(const hd_cmd_spec *spec, FILE *out);
-/* Prints "hdnet CMD: usage error: ..." and a hint to --help; returns HD_EXIT_USAGE. */
-int hd_usage_error(const hd_cmd_spec *spec, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-/* Prints "hdnet CMD: " + hd_error(); returns HD_EXIT_FAIL. */
-int hd_report(const char *cmd);
+void cli_opts_help(const cli_cmd_spec *spec, FILE *out);
+/* Prints "hdnet CMD: usage error: ..." and a hint to --help; returns CLI_EXIT_USAGE. */
+int cli_usage_error(const cli_cmd_spec *spec, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Prints "hdnet CMD: " + hd_error(); returns CLI_EXIT_FAIL. */
+int cli_report(const char *cmd);
 
 /* What the commands that apply a model to a photo or an aligned face share: their option rows, */
-#define HD_OPT_MODEL_ROW(var) {"model", 'm', HD_OPT_STRING, &(var), "MODEL", "model file (default: the shipped hdnet-synth model)"}
-#define HD_OPT_FACE_MASK_ROW(var)                                                                                      \
-    {"mask", 0, HD_OPT_STRING, &(var), "M.png",                                                                        \
+#define CLI_OPT_MODEL_ROW(var) {"model", 'm', CLI_OPT_STRING, &(var), "MODEL", "model file (default: the shipped hdnet-synth model)"}
+#define CLI_OPT_FACE_MASK_ROW(var)                                                                                      \
+    {"mask", 0, CLI_OPT_STRING, &(var), "M.png",                                                                        \
      "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"}
-#define HD_OPT_ALIGNED_ROW(var)                                                                                        \
-    {"aligned", 0, HD_OPT_FLAG, &(var), NULL,                                                                          \
+#define CLI_OPT_ALIGNED_ROW(var)                                                                                        \
+    {"aligned", 0, CLI_OPT_FLAG, &(var), NULL,                                                                          \
      "IMG is an aligned face texture, not a photo (automatic when NAME.mask.png or NAME.normal.png is beside it)"}
 /* the report of a photo core's failure st for path ("no face found (give --aligned ...)" or the
- * error; returns HD_EXIT_FAIL), */
-int hd_report_photo(const char *cmd, hd_status st, const char *path);
+ * error; returns CLI_EXIT_FAIL), */
+int cli_report_photo(const char *cmd, hd_status st, const char *path);
 /* and the notes on --mask: a photo's faces bring their own; an aligned texture's NAME.mask.png
  * (mask_source, as hd_face_mask_read found it) wins over it. */
-void hd_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source);
+void cli_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source);
 
-#endif /* HD_CLI_H */
+/* The names before the cli_ prefix, kept for branches written against them; to be removed once
+ * every branch has rebased (new code uses the cli_ / CLI_ names). */
+#define HD_COMMAND CLI_COMMAND
+#define hd_opt cli_opt
+#define hd_opt_floats cli_opt_floats
+#define hd_cmd_spec cli_cmd_spec
+#define hd_opts_parse cli_opts_parse
+#define hd_usage_error cli_usage_error
+#define hd_report cli_report
+#define hd_report_photo cli_report_photo
+#define hd_note_mask cli_note_mask
+#define HD_EXIT_OK CLI_EXIT_OK
+#define HD_EXIT_FAIL CLI_EXIT_FAIL
+#define HD_EXIT_USAGE CLI_EXIT_USAGE
+#define HD_OPT_FLAG CLI_OPT_FLAG
+#define HD_OPT_INT CLI_OPT_INT
+#define HD_OPT_FLOAT CLI_OPT_FLOAT
+#define HD_OPT_STRING CLI_OPT_STRING
+#define HD_OPT_FLOATS CLI_OPT_FLOATS
+#define HD_OPT_MODEL_ROW CLI_OPT_MODEL_ROW
+#define HD_OPT_FACE_MASK_ROW CLI_OPT_FACE_MASK_ROW
+#define HD_OPT_ALIGNED_ROW CLI_OPT_ALIGNED_ROW
+
+#endif /* CLI_H */

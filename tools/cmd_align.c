@@ -7,7 +7,7 @@
 #include "cli.h"
 #include "core/core.h"
 
-HD_COMMAND("align", cmd_align, "find the faces in photos and unwarp each into the aligned texture space")
+CLI_COMMAND("align", cmd_align, "find the faces in photos and unwarp each into the aligned texture space")
 
 static int has_image_extension(const char *name)
 {
@@ -72,13 +72,13 @@ int cmd_align(int argc, char **argv)
 {
     const char *out_dir = NULL;
     int size = 256, quiet = 0;
-    const hd_opt opts[] = {
-        {"output", 'o', HD_OPT_STRING, &out_dir, "DIR", "output folder: DIR/<photo name>/face<k>.* (required)"},
-        {"size", 0, HD_OPT_INT, &size, "S", "side of the aligned texture, 16..4096 (default 256)"},
-        {"quiet", 'q', HD_OPT_FLAG, &quiet, NULL, "print only problems"},
+    const cli_opt opts[] = {
+        {"output", 'o', CLI_OPT_STRING, &out_dir, "DIR", "output folder: DIR/<photo name>/face<k>.* (required)"},
+        {"size", 0, CLI_OPT_INT, &size, "S", "side of the aligned texture, 16..4096 (default 256)"},
+        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "print only problems"},
         {0},
     };
-    hd_cmd_spec spec = {
+    cli_cmd_spec spec = {
         "align", "IMG|DIR [IMG|DIR ...] -o DIR [--size S]",
         "Finds every face in each photo (a folder: its .png/.jpg/.jpeg files), fits the canonical face mesh\n"
         "to its 468 landmarks and writes, per face k, into DIR/<photo name>/:\n"
@@ -93,21 +93,21 @@ int cmd_align(int argc, char **argv)
         opts, 1, -1};
     char **pos;
     int np, code;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &np, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &np, &code)) return code;
     if (!out_dir) {
         free(pos);
-        return hd_usage_error(&spec, "-o DIR is required");
+        return cli_usage_error(&spec, "-o DIR is required");
     }
     if (size < 16 || size > 4096) {
         free(pos);
-        return hd_usage_error(&spec, "--size must be in 16..4096, got %d", size);
+        return cli_usage_error(&spec, "--size must be in 16..4096, got %d", size);
     }
     char **photos = NULL;
-    int nphotos = 0, cap = 0, rc = HD_EXIT_FAIL;
+    int nphotos = 0, cap = 0, rc = CLI_EXIT_FAIL;
     hd_aligner *aligner = NULL;
     for (int i = 0; i < np; i++)
         if (collect(pos[i], &photos, &nphotos, &cap)) {
-            hd_report("align");
+            cli_report("align");
             goto done;
         }
     if (nphotos == 0) {
@@ -116,13 +116,13 @@ int cmd_align(int argc, char **argv)
     }
     int faces_written = 0, no_face = 0, unreadable = 0;
     if (hd_mkdirs(out_dir) || hd_aligner_load(&aligner)) { /* an unwritable -o fails before any work */
-        hd_report("align");
+        cli_report("align");
         goto done;
     }
     for (int p = 0; p < nphotos; p++) {
         hd_image photo = {0};
         if (hd_image_read_as(photos[p], 3, &photo)) {
-            hd_report("align");
+            cli_report("align");
             unreadable++;
             continue;
         }
@@ -160,14 +160,14 @@ int cmd_align(int argc, char **argv)
         free(dir);
         hd_aligned_faces_free(faces, count);
         if (st) { /* an output that cannot be written stops the batch */
-            hd_report("align");
+            cli_report("align");
             goto done;
         }
     }
     if (!quiet || faces_written == 0)
         fprintf(faces_written ? stdout : stderr, "%s%d face(s) from %d photo(s) into %s (%d without a face, %d failed)\n",
                 faces_written ? "" : "hdnet align: ", faces_written, nphotos, out_dir, no_face, unreadable);
-    rc = faces_written > 0 ? HD_EXIT_OK : HD_EXIT_FAIL;
+    rc = faces_written > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
 done:
     hd_aligner_free(aligner);
     for (int i = 0; i < nphotos; i++) free(photos[i]);

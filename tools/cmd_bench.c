@@ -12,7 +12,7 @@
 #include "nn/nn.h"
 #include "model/unet.h"
 
-HD_COMMAND("bench", cmd_bench, "measure SGEMM peak, convolution and network speed, memory")
+CLI_COMMAND("bench", cmd_bench, "measure SGEMM peak, convolution and network speed, memory")
 
 #define BENCH_CIN 32
 #define BENCH_COUT 3
@@ -176,16 +176,16 @@ int cmd_bench(int argc, char **argv)
 {
     bench_args a = {.size = 256, .batch = 1, .threads = 2, .width = 48, .json = 0, .repeats = 5, .out = stdout};
     int layers = 1, portable = 1;
-    const hd_opt opts[] = {
-        {"size", 0, HD_OPT_INT, &a.size, "S", "image side, a multiple of 32 (default 256)"},
-        {"batch", 0, HD_OPT_INT, &a.batch, "B", "images per forward (default 1)"},
-        {"threads", 0, HD_OPT_INT, &a.threads, "T", "OpenMP and OpenBLAS threads (default 2)"},
-        {"width", 0, HD_OPT_INT, &a.width, "W", "Common-Net width (default 48, the paper's)"},
-        {"repeats", 0, HD_OPT_INT, &a.repeats, "R", "timed runs per figure after one warm-up; the best counts (default 5)"},
-        {"json", 0, HD_OPT_FLAG, &a.json, NULL, "print one JSON object instead of tables"},
+    const cli_opt opts[] = {
+        {"size", 0, CLI_OPT_INT, &a.size, "S", "image side, a multiple of 32 (default 256)"},
+        {"batch", 0, CLI_OPT_INT, &a.batch, "B", "images per forward (default 1)"},
+        {"threads", 0, CLI_OPT_INT, &a.threads, "T", "OpenMP and OpenBLAS threads (default 2)"},
+        {"width", 0, CLI_OPT_INT, &a.width, "W", "Common-Net width (default 48, the paper's)"},
+        {"repeats", 0, CLI_OPT_INT, &a.repeats, "R", "timed runs per figure after one warm-up; the best counts (default 5)"},
+        {"json", 0, CLI_OPT_FLAG, &a.json, NULL, "print one JSON object instead of tables"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "bench", "[--size S] [--batch B] [--threads T] [--width W] [--repeats R] [--json]",
         "Measures the machine's SGEMM peak (OpenBLAS, 2048^3), then every 3x3 convolution of a\n"
         "Common-Net (cin 32, cout 3) forward, backward-data and backward-weights, the whole Common-Net\n"
@@ -194,14 +194,14 @@ int cmd_bench(int argc, char **argv)
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
     if (a.size < 32 || a.size % 32 || a.size > 4096)
-        return hd_usage_error(&spec, "--size must be a multiple of 32 in 32..4096, got %d", a.size);
-    if (a.batch < 1 || a.batch > 256) return hd_usage_error(&spec, "--batch must be in 1..256, got %d", a.batch);
-    if (a.threads < 1 || a.threads > 1024) return hd_usage_error(&spec, "--threads must be in 1..1024, got %d", a.threads);
-    if (a.width < 1 || a.width > 1024) return hd_usage_error(&spec, "--width must be in 1..1024, got %d", a.width);
-    if (a.repeats < 1 || a.repeats > 1000) return hd_usage_error(&spec, "--repeats must be in 1..1000, got %d", a.repeats);
+        return cli_usage_error(&spec, "--size must be a multiple of 32 in 32..4096, got %d", a.size);
+    if (a.batch < 1 || a.batch > 256) return cli_usage_error(&spec, "--batch must be in 1..256, got %d", a.batch);
+    if (a.threads < 1 || a.threads > 1024) return cli_usage_error(&spec, "--threads must be in 1..1024, got %d", a.threads);
+    if (a.width < 1 || a.width > 1024) return cli_usage_error(&spec, "--width must be in 1..1024, got %d", a.width);
+    if (a.repeats < 1 || a.repeats > 1000) return cli_usage_error(&spec, "--repeats must be in 1..1000, got %d", a.repeats);
     omp_set_num_threads(a.threads);
     openblas_set_num_threads(a.threads);
     FILE *o = stdout;
@@ -232,7 +232,7 @@ int cmd_bench(int argc, char **argv)
             conv_times t;
             if (time_conv(a.batch, ls[k].C, ls[k].OC, ls[k].side, k == nl - 1 ? HD_ACT_NONE : HD_ACT_LRELU,
                           HD_CONV_AUTO, a.repeats, &t) != HD_OK)
-                return hd_report("bench");
+                return cli_report("bench");
             double fl = 2.0 * 9 * ls[k].C * ls[k].OC * (double)ls[k].side * ls[k].side * a.batch * 1e-9;
             if (J)
                 fprintf(o, "  {\"name\": \"%s\", \"C\": %d, \"OC\": %d, \"side\": %d, \"kernel\": \"%s\", \"fwd_s\": %.6f, \"bwd_data_s\": %.6f, \"bwd_weights_s\": %.6f, \"fwd_gflops\": %.1f, \"bwd_data_gflops\": %.1f, \"bwd_weights_gflops\": %.1f}%s\n",
@@ -250,7 +250,7 @@ int cmd_bench(int argc, char **argv)
         /* the portable path on the paper's 48 -> 48 layer at the full size, for comparison */
         conv_times t;
         if (time_conv(a.batch, a.width, a.width, a.size, HD_ACT_LRELU, HD_CONV_PORTABLE, a.repeats < 3 ? a.repeats : 3, &t) != HD_OK)
-            return hd_report("bench");
+            return cli_report("bench");
         double fl = 2.0 * 9 * a.width * a.width * (double)a.size * a.size * a.batch * 1e-9;
         if (J) fprintf(o, "\"portable_conv_fwd_gflops\": %.1f,\n\"portable_conv_bwd_data_gflops\": %.1f,\n\"portable_conv_bwd_weights_gflops\": %.1f,\n",
                        fl / t.fwd, fl / t.bwd_data, fl / t.bwd_weights);
@@ -259,7 +259,7 @@ int cmd_bench(int argc, char **argv)
     }
 
     net_times nt;
-    if (time_unet(&a, &nt) != HD_OK) return hd_report("bench");
+    if (time_unet(&a, &nt) != HD_OK) return cli_report("bench");
     double gf = 2.0 * hd_unet_macs(BENCH_CIN, BENCH_COUT, a.width, a.size, a.size) * a.batch * 1e-9;
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
@@ -301,5 +301,5 @@ int cmd_bench(int argc, char **argv)
     if (bench_hdnet && bench_hdnet(&a) != 0) rc = 1;
     if (bench_align && bench_align(&a) != 0) rc = 1;
     if (J) fprintf(o, "\"ok\": %s\n}\n", rc ? "false" : "true");
-    return rc ? HD_EXIT_FAIL : HD_EXIT_OK;
+    return rc ? CLI_EXIT_FAIL : CLI_EXIT_OK;
 }

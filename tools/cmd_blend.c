@@ -6,33 +6,33 @@
 #include "cli.h"
 #include "core/core.h"
 
-HD_COMMAND("blend", cmd_blend, "Poisson-blend an image (or an aligned face texture) into a photo")
+CLI_COMMAND("blend", cmd_blend, "Poisson-blend an image (or an aligned face texture) into a photo")
 
 int cmd_blend(int argc, char **argv)
 {
     const char *source_path = NULL, *target_path = NULL, *mask_path = NULL, *warp_path = NULL, *out_path = NULL,
                *original_path = NULL;
-    hd_opt_floats offset = {0, 2, {0}};
+    cli_opt_floats offset = {0, 2, {0}};
     float tolerance = (float)HD_POISSON_TOLERANCE;
     int quiet = 0;
-    const hd_opt opts[] = {
-        {"source", 's', HD_OPT_STRING, &source_path, "S.png", "the image to blend in (required)"},
-        {"target", 't', HD_OPT_STRING, &target_path, "T.png", "the photo to blend into (required)"},
-        {"mask", 'm', HD_OPT_STRING, &mask_path, "M.png",
+    const cli_opt opts[] = {
+        {"source", 's', CLI_OPT_STRING, &source_path, "S.png", "the image to blend in (required)"},
+        {"target", 't', CLI_OPT_STRING, &target_path, "T.png", "the photo to blend into (required)"},
+        {"mask", 'm', CLI_OPT_STRING, &mask_path, "M.png",
          "where the source counts (> 0.5; source-sized; default: all of it, with --warp the mesh's UV layout; "
          "give the face's .mask.png)"},
-        {"offset", 0, HD_OPT_FLOATS, &offset, "X,Y", "target pixel of the source's top-left pixel (default 0,0)"},
-        {"warp", 'w', HD_OPT_STRING, &warp_path, "W.warp.txt",
+        {"offset", 0, CLI_OPT_FLOATS, &offset, "X,Y", "target pixel of the source's top-left pixel (default 0,0)"},
+        {"warp", 'w', CLI_OPT_STRING, &warp_path, "W.warp.txt",
          "the source is an aligned texture of this face (from `hdnet align`): warp it back into the target first"},
-        {"original", 0, HD_OPT_STRING, &original_path, "FACE.png",
+        {"original", 0, CLI_OPT_STRING, &original_path, "FACE.png",
          "with --warp: the face's own unwarped texture (face<k>.png); only the change source - original is put "
          "into the photo, which keeps the photo's full-resolution detail"},
-        {"tolerance", 0, HD_OPT_FLOAT, &tolerance, "X", "relative residual the solver must reach (default 1e-4)"},
-        {"output", 'o', HD_OPT_STRING, &out_path, "OUT.png", "where to write the result, 8-bit PNG (required)"},
-        {"quiet", 'q', HD_OPT_FLAG, &quiet, NULL, "do not print the solver's figures"},
+        {"tolerance", 0, CLI_OPT_FLOAT, &tolerance, "X", "relative residual the solver must reach (default 1e-4)"},
+        {"output", 'o', CLI_OPT_STRING, &out_path, "OUT.png", "where to write the result, 8-bit PNG (required)"},
+        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "do not print the solver's figures"},
         {0},
     };
-    hd_cmd_spec spec = {
+    cli_cmd_spec spec = {
         "blend",
         "--source S.png --target T.png [--mask M.png] [--offset X,Y | --warp W.warp.txt [--original FACE.png]] "
         "-o OUT.png",
@@ -45,25 +45,25 @@ int cmd_blend(int argc, char **argv)
         opts, 0, 0};
     char **pos;
     int np, code;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &np, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &np, &code)) return code;
     free(pos);
-    if (!source_path) return hd_usage_error(&spec, "--source is required");
-    if (!target_path) return hd_usage_error(&spec, "--target is required");
-    if (!out_path) return hd_usage_error(&spec, "-o OUT.png is required");
-    if (offset.count != 0 && offset.count != 2) return hd_usage_error(&spec, "--offset wants X,Y");
-    if (offset.count && warp_path) return hd_usage_error(&spec, "--offset and --warp exclude each other");
-    if (original_path && !warp_path) return hd_usage_error(&spec, "--original goes with --warp");
-    if (!(tolerance > 0 && tolerance < 1)) return hd_usage_error(&spec, "--tolerance must be in (0, 1)");
+    if (!source_path) return cli_usage_error(&spec, "--source is required");
+    if (!target_path) return cli_usage_error(&spec, "--target is required");
+    if (!out_path) return cli_usage_error(&spec, "-o OUT.png is required");
+    if (offset.count != 0 && offset.count != 2) return cli_usage_error(&spec, "--offset wants X,Y");
+    if (offset.count && warp_path) return cli_usage_error(&spec, "--offset and --warp exclude each other");
+    if (original_path && !warp_path) return cli_usage_error(&spec, "--original goes with --warp");
+    if (!(tolerance > 0 && tolerance < 1)) return cli_usage_error(&spec, "--tolerance must be in (0, 1)");
     int ox = 0, oy = 0;
     if (offset.count) {
         if (offset.v[0] != (int)offset.v[0] || offset.v[1] != (int)offset.v[1] || offset.v[0] < -HD_IMAGE_MAX_SIDE ||
             offset.v[0] > HD_IMAGE_MAX_SIDE || offset.v[1] < -HD_IMAGE_MAX_SIDE || offset.v[1] > HD_IMAGE_MAX_SIDE)
-            return hd_usage_error(&spec, "--offset wants two whole numbers of pixels within +-%d", HD_IMAGE_MAX_SIDE);
+            return cli_usage_error(&spec, "--offset wants two whole numbers of pixels within +-%d", HD_IMAGE_MAX_SIDE);
         ox = (int)offset.v[0];
         oy = (int)offset.v[1];
     }
 
-    int rc = HD_EXIT_FAIL, reported = 0;
+    int rc = CLI_EXIT_FAIL, reported = 0;
     hd_image source = {0}, target = {0}, mask = {0};
     hd_aligned_face face;
     memset(&face, 0, sizeof face);
@@ -115,9 +115,9 @@ int cmd_blend(int argc, char **argv)
             if (rep.residual[c] > worst) worst = rep.residual[c];
         printf(", relative residual %.2g (tolerance %.2g), %.2f s -> %s\n", worst, rep.tolerance, rep.seconds, out_path);
     }
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
-    if (rc != HD_EXIT_OK && !reported) hd_report("blend");
+    if (rc != CLI_EXIT_OK && !reported) cli_report("blend");
     hd_image_free(&source);
     hd_image_free(&target);
     hd_image_free(&mask);

@@ -12,7 +12,7 @@
 #include "core/core.h"
 #include "io/dataset.h"
 
-HD_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of the faces in photos or aligned textures")
+CLI_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of the faces in photos or aligned textures")
 
 #define SHEET_BORDER 4
 
@@ -221,18 +221,18 @@ int cmd_decompose(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
     int batch = 4, aligned = 0;
-    const hd_opt opts[] = {
-        HD_OPT_MODEL_ROW(model_path),
-        {"output", 'o', HD_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
-        {"batch", 0, HD_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+    const cli_opt opts[] = {
+        CLI_OPT_MODEL_ROW(model_path),
+        {"output", 'o', CLI_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
+        {"batch", 0, CLI_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
+        {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png",
          "face mask for aligned textures without a NAME.mask.png beside them (default: all ones)"},
-        {"aligned", 0, HD_OPT_FLAG, &aligned, NULL,
+        {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "the inputs are aligned face textures, not photos (automatic for an image with NAME.mask.png or "
          "NAME.normal.png beside it)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--aligned [--mask M.png]]",
         "Decomposes the faces of photos, or aligned face textures (docs/spec.md section 2: --aligned, or an image\n"
         "with NAME.mask.png or NAME.normal.png beside it), into intrinsic components. For each texture\n"
@@ -247,32 +247,32 @@ int cmd_decompose(int argc, char **argv)
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     if (!out) {
         free(pos);
-        return hd_usage_error(&spec, "-o is required");
+        return cli_usage_error(&spec, "-o is required");
     }
     if (batch < 1 || batch > 256) {
         free(pos);
-        return hd_usage_error(&spec, "--batch wants 1..256, got %d", batch);
+        return cli_usage_error(&spec, "--batch wants 1..256, got %d", batch);
     }
 
     hd_set_durable_writes(0); /* bulk pictures: atomic (renamed into place) but not fsynced */
     job_list jobs = {0};
     hd_model *model = NULL;
-    int failed = 0, written = 0, rc = HD_EXIT_OK;
+    int failed = 0, written = 0, rc = CLI_EXIT_OK;
     for (int i = 0; i < npos; i++)
         if (add_input(&jobs, pos[i], out) != HD_OK) {
-            hd_report("decompose");
+            cli_report("decompose");
             failed++;
         }
     free(pos);
     if (jobs.count == 0) {
-        rc = HD_EXIT_FAIL;
+        rc = CLI_EXIT_FAIL;
         goto done;
     }
     if (hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
-        rc = hd_report("decompose");
+        rc = cli_report("decompose");
         goto done;
     }
     /* photos one at a time (each aligned first); the aligned textures below in batches */
@@ -288,10 +288,10 @@ int cmd_decompose(int argc, char **argv)
         if (st == HD_OK) st = hd_mkdirs(jobs.v[i].out_dir);
         if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces);
         if (st == HD_ERR_NOTFOUND) { /* reported, skipped, not a failure of the batch */
-            hd_report("decompose");
+            cli_report("decompose");
             no_face++;
         } else if (st != HD_OK) {
-            hd_report("decompose");
+            cli_report("decompose");
             failed++;
         } else {
             printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces, nfaces == 1 ? "" : "s",
@@ -312,7 +312,7 @@ int cmd_decompose(int argc, char **argv)
     if (!tex || !mask || !d || !sheets || !index) {
         fprintf(stderr, "hdnet decompose: out of memory\n");
         free(tex), free(mask), free(d), free(sheets), free(index);
-        rc = HD_EXIT_FAIL;
+        rc = CLI_EXIT_FAIL;
         goto done;
     }
     hd_progress progress;
@@ -323,7 +323,7 @@ int cmd_decompose(int argc, char **argv)
             char *source = NULL;
             if (hd_image_read_as(jobs.v[i].image, 3, &tex[n]) != HD_OK ||
                 hd_face_mask_read(jobs.v[i].image, mask_path, size, size, &mask[n], &source) != HD_OK) {
-                hd_report("decompose");
+                cli_report("decompose");
                 hd_image_free(&tex[n]);
                 failed++;
             } else {
@@ -332,12 +332,12 @@ int cmd_decompose(int argc, char **argv)
             free(source);
         }
         if (n > 0 && decompose_textures(model, tex, n, d, sheets) != HD_OK) {
-            hd_report("decompose");
+            cli_report("decompose");
             failed += n;
         } else {
             for (int k = 0; k < n; k++) {
                 if (write_outputs(&jobs.v[index[k]], &d[k], &mask[k], &sheets[k]) != HD_OK) {
-                    hd_report("decompose");
+                    cli_report("decompose");
                     failed++;
                 } else {
                     written++;
@@ -358,7 +358,7 @@ int cmd_decompose(int argc, char **argv)
     if (failed) printf(" (%d failed)", failed);
     if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
     printf("\n");
-    if (failed || written == 0) rc = HD_EXIT_FAIL;
+    if (failed || written == 0) rc = CLI_EXIT_FAIL;
 done:
     if (model) hd_model_free(model);
     job_list_free(&jobs);

@@ -11,7 +11,7 @@
 #include "align/face_landmarks.h"
 #include "mesh/mesh.h"
 
-HD_COMMAND("detect", cmd_detect, "find faces and their 468 landmarks in a photo; print, save or draw them")
+CLI_COMMAND("detect", cmd_detect, "find faces and their 468 landmarks in a photo; print, save or draw them")
 
 enum { DRAW_BOX = 1, DRAW_KEYPOINTS = 2, DRAW_ROI = 4, DRAW_LANDMARKS = 8, DRAW_MESH = 16 };
 
@@ -142,22 +142,22 @@ int cmd_detect(int argc, char **argv)
     const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
     float min_score = HD_FACE_MIN_SCORE, min_face = HD_FACE_MIN_SIZE;
     int no_landmarks = 0, zoom_size = 0;
-    const hd_opt opts[] = {
-        {"output", 'o', HD_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
-        {"landmarks", 0, HD_OPT_STRING, &landmarks_path, "L.txt",
+    const cli_opt opts[] = {
+        {"output", 'o', CLI_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
+        {"landmarks", 0, CLI_OPT_STRING, &landmarks_path, "L.txt",
          "write the landmarks: per face a '# face' line and 468 lines 'x y z'"},
-        {"min-score", 0, HD_OPT_FLOAT, &min_score, "S", "detection threshold in (0, 1] (default 0.75)"},
-        {"min-face", 0, HD_OPT_FLOAT, &min_face, "PX",
+        {"min-score", 0, CLI_OPT_FLOAT, &min_score, "S", "detection threshold in (0, 1] (default 0.75)"},
+        {"min-face", 0, CLI_OPT_FLOAT, &min_face, "PX",
          "smallest face to look for, pixels wide (default 40; 0: one pass over the whole photo)"},
-        {"no-landmarks", 0, HD_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
-        {"draw", 0, HD_OPT_STRING, &draw_text, "LIST",
+        {"no-landmarks", 0, CLI_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
+        {"draw", 0, CLI_OPT_STRING, &draw_text, "LIST",
          "what -o shows, comma-separated from box, keypoints, roi (the crop the face mesh first sees), "
          "landmarks, mesh (the canonical mesh's triangles on the landmarks) (default box,keypoints,landmarks)"},
-        {"zoom", 0, HD_OPT_INT, &zoom_size, "N",
+        {"zoom", 0, CLI_OPT_INT, &zoom_size, "N",
          "draw only the first face's landmark crop, enlarged to N x N pixels (default 0: the whole photo)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "detect", "IMG [-o annotated.png] [--landmarks L.txt] [options]",
         "Finds the faces in a photo with MediaPipe's BlazeFace detector (back-camera model) over an\n"
         "image pyramid, down to --min-face pixels wide, and, for each, the 468 face-mesh landmarks\n"
@@ -168,19 +168,19 @@ int cmd_detect(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *path = pos[0];
     free(pos);
     int draw;
     if (!parse_draw(draw_text, &draw))
-        return hd_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
+        return cli_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
     if (!(min_score > 0.0f && min_score <= 1.0f))
-        return hd_usage_error(&spec, "--min-score must be in (0, 1], got %g", (double)min_score);
+        return cli_usage_error(&spec, "--min-score must be in (0, 1], got %g", (double)min_score);
     if (!(min_face >= 0.0f && min_face <= (float)HD_IMAGE_MAX_SIDE))
-        return hd_usage_error(&spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)min_face);
-    if (zoom_size < 0 || zoom_size > 4096) return hd_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);
-    if (no_landmarks && landmarks_path) return hd_usage_error(&spec, "--landmarks needs the face mesh (drop --no-landmarks)");
-    if (zoom_size && !out) return hd_usage_error(&spec, "--zoom goes with -o");
+        return cli_usage_error(&spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)min_face);
+    if (zoom_size < 0 || zoom_size > 4096) return cli_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);
+    if (no_landmarks && landmarks_path) return cli_usage_error(&spec, "--landmarks needs the face mesh (drop --no-landmarks)");
+    if (zoom_size && !out) return cli_usage_error(&spec, "--zoom goes with -o");
 
     hd_image photo = {0};
     hd_face_detector *det = NULL;
@@ -191,7 +191,7 @@ int cmd_detect(int argc, char **argv)
     hd_face_roi *rois = NULL;
     canvas cv = {0};
     hd_mesh canonical = {0};
-    int count = 0, rc = HD_EXIT_FAIL;
+    int count = 0, rc = CLI_EXIT_FAIL;
     if (hd_image_read_as(path, 3, &photo) != HD_OK || hd_face_detector_load(NULL, &det) != HD_OK) goto done;
     double t0 = hd_seconds();
     if (hd_face_detector_find(det, &photo, min_score, min_face, &faces, &count) != HD_OK) goto done;
@@ -264,9 +264,9 @@ int cmd_detect(int argc, char **argv)
         if (hd_image_write_png(out, &cv.img, 8) != HD_OK) goto done;
         printf("wrote %s\n", out);
     }
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
-    if (rc != HD_EXIT_OK) hd_report("detect");
+    if (rc != CLI_EXIT_OK) cli_report("detect");
     hd_image_free(&cv.img);
     hd_mesh_free(&canonical);
     hd_image_free(&photo);

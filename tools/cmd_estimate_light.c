@@ -5,21 +5,21 @@
 #include <stdlib.h>
 #include "cli.h"
 
-HD_COMMAND("estimate-light", cmd_estimate_light, "estimate the light of the face in a photo or of an aligned face (SH light file)")
+CLI_COMMAND("estimate-light", cmd_estimate_light, "estimate the light of the face in a photo or of an aligned face (SH light file)")
 
 int cmd_estimate_light(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *preview = NULL;
     int size = 256, aligned = 0;
-    const hd_opt opts[] = {
-        HD_OPT_MODEL_ROW(model_path),
-        {"output", 'o', HD_OPT_STRING, &out, "L.txt", "the light file (9 numbers, DPR order)"},
-        {"preview", 0, HD_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
-        {"size", 0, HD_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
-        HD_OPT_ALIGNED_ROW(aligned),
+    const cli_opt opts[] = {
+        CLI_OPT_MODEL_ROW(model_path),
+        {"output", 'o', CLI_OPT_STRING, &out, "L.txt", "the light file (9 numbers, DPR order)"},
+        {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
+        {"size", 0, CLI_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
+        CLI_OPT_ALIGNED_ROW(aligned),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "estimate-light", "IMG [-m MODEL] -o L.txt [--preview SPHERE.png] [--aligned]",
         "Writes the light the model estimates for the face in a photo (the best-scoring face, aligned\n"
         "first) or, with --aligned, for an aligned face texture (docs/spec.md section 2): 9 spherical-harmonics\n"
@@ -27,28 +27,28 @@ int cmd_estimate_light(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *image_path = pos[0];
     free(pos);
-    if (!out) return hd_usage_error(&spec, "-o is required");
-    if (size < 8 || size > 4096) return hd_usage_error(&spec, "--size wants 8..4096, got %d", size);
+    if (!out) return cli_usage_error(&spec, "-o is required");
+    if (size < 8 || size > 4096) return cli_usage_error(&spec, "--size wants 8..4096, got %d", size);
 
     const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
     hd_image tex = {0}, sphere = {0};
     float light[HD_SH_COEFFS];
-    int rc = HD_EXIT_FAIL, nfaces = 1;
+    int rc = CLI_EXIT_FAIL, nfaces = 1;
     if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
         (photo && hd_aligner_load(&aligner) != HD_OK)) {
-        rc = hd_report("estimate-light");
+        rc = cli_report("estimate-light");
         goto done;
     }
     hd_status st = photo ? hd_estimate_light_photo(model, aligner, &tex, light, &nfaces)
                          : hd_estimate_light(model, &tex, light);
     if (st != HD_OK) {
-        if (photo) hd_report_photo("estimate-light", st, image_path);
-        else hd_report("estimate-light");
+        if (photo) cli_report_photo("estimate-light", st, image_path);
+        else cli_report("estimate-light");
         goto done;
     }
     if (nfaces > 1)
@@ -56,10 +56,10 @@ int cmd_estimate_light(int argc, char **argv)
                 image_path, nfaces);
     if (hd_light_write(out, light) != HD_OK ||
         (preview && (hd_light_sphere(light, size, &sphere) != HD_OK || hd_image_write_png(preview, &sphere, 8) != HD_OK))) {
-        rc = hd_report("estimate-light");
+        rc = cli_report("estimate-light");
         goto done;
     }
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
     hd_image_free(&sphere);
     hd_image_free(&tex);

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include "cli.h"
 
-HD_COMMAND("eval", cmd_eval, "score a model or predictions on a set with ground truth (the paper's metrics)")
+CLI_COMMAND("eval", cmd_eval, "score a model or predictions on a set with ground truth (the paper's metrics)")
 
 static void warn(const char *message) { fprintf(stderr, "hdnet eval: skipped: %s\n", message); }
 
@@ -45,14 +45,14 @@ int cmd_eval(int argc, char **argv)
 {
     const char *model_path = NULL, *pred = NULL, *json = NULL;
     int threads = 0;
-    const hd_opt opts[] = {
-        {"model", 'm', HD_OPT_STRING, &model_path, "MODEL", "score this model (safetensors) on the set's images"},
-        {"pred", 0, HD_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
-        {"json", 0, HD_OPT_STRING, &json, "OUT", "also write the table as JSON to OUT"},
-        {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads for the model (default: all)"},
+    const cli_opt opts[] = {
+        {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL", "score this model (safetensors) on the set's images"},
+        {"pred", 0, CLI_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
+        {"json", 0, CLI_OPT_STRING, &json, "OUT", "also write the table as JSON to OUT"},
+        {"threads", 't', CLI_OPT_INT, &threads, "N", "OpenMP threads for the model (default: all)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "eval", "DATA (-m MODEL | --pred DIR) [--json OUT]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
@@ -64,20 +64,20 @@ int cmd_eval(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *data = pos[0];
     free(pos);
-    if ((model_path == NULL) == (pred == NULL)) return hd_usage_error(&spec, "give exactly one of -m MODEL and --pred DIR");
-    if (threads < 0) return hd_usage_error(&spec, "--threads %d must be >= 0", threads);
+    if ((model_path == NULL) == (pred == NULL)) return cli_usage_error(&spec, "give exactly one of -m MODEL and --pred DIR");
+    if (threads < 0) return cli_usage_error(&spec, "--threads %d must be >= 0", threads);
     if (threads > 0) hd_set_threads(threads);
     hd_model *model = NULL;
-    if (model_path && hd_model_load(model_path, &model) != HD_OK) return hd_report("eval");
+    if (model_path && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
     hd_eval_report rep;
     hd_status st = hd_eval_run(data, pred, model, &rep, warn);
     hd_model_free(model);
-    if (st != HD_OK) return hd_report("eval");
+    if (st != HD_OK) return cli_report("eval");
     snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", model_path ? "hdnet model" : "predictions");
     print_table(&rep);
-    if (json && hd_eval_report_write_json(json, &rep) != HD_OK) return hd_report("eval");
-    return HD_EXIT_OK;
+    if (json && hd_eval_report_write_json(json, &rep) != HD_OK) return cli_report("eval");
+    return CLI_EXIT_OK;
 }

@@ -6,7 +6,7 @@
 #include <string.h>
 #include "cli.h"
 
-HD_COMMAND("fit-light", cmd_fit_light, "fit the least-squares SH light to normals and shading")
+CLI_COMMAND("fit-light", cmd_fit_light, "fit the least-squares SH light to normals and shading")
 
 /* Shading albedo below this is too dark to divide by (the pixel is left out of the fit). */
 #define FIT_ALBEDO_MIN 0.02f
@@ -34,17 +34,17 @@ int cmd_fit_light(int argc, char **argv)
 {
     const char *normal_path = NULL, *shading_path = NULL, *image_path = NULL, *albedo_path = NULL;
     const char *mask_path = NULL, *out = NULL;
-    const hd_opt opts[] = {
-        {"normal", 0, HD_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
-        {"shading", 0, HD_OPT_STRING, &shading_path, "S",
+    const cli_opt opts[] = {
+        {"normal", 0, CLI_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
+        {"shading", 0, CLI_OPT_STRING, &shading_path, "S",
          "shading: 16-bit PNG holding s/2 (doubled on reading), or PFM holding s exactly"},
-        {"image", 0, HD_OPT_STRING, &image_path, "I", "an image, with --albedo: s = mean over channels of I/A"},
-        {"albedo", 0, HD_OPT_STRING, &albedo_path, "A", "the image's albedo (channels with A <= 0.02 are left out)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png", "per-pixel weight of the fit in [0, 1] (default 1)"},
-        {"output", 'o', HD_OPT_STRING, &out, "L.txt", "the light file written"},
+        {"image", 0, CLI_OPT_STRING, &image_path, "I", "an image, with --albedo: s = mean over channels of I/A"},
+        {"albedo", 0, CLI_OPT_STRING, &albedo_path, "A", "the image's albedo (channels with A <= 0.02 are left out)"},
+        {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png", "per-pixel weight of the fit in [0, 1] (default 1)"},
+        {"output", 'o', CLI_OPT_STRING, &out, "L.txt", "the light file written"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "fit-light", "--normal N.png (--shading S | --image I --albedo A) [--mask M.png] -o L.txt",
         "Fits the 9 SH coefficients l minimising sum_p m_p (b(n_p) . l - s_p)^2 (docs/spec.md section 2) over\n"
         "the pixels with a normal and a positive mask, writes them as a light file and prints them\n"
@@ -52,23 +52,23 @@ int cmd_fit_light(int argc, char **argv)
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
-    if (!normal_path || !out) return hd_usage_error(&spec, "--normal and -o are required");
+    if (!normal_path || !out) return cli_usage_error(&spec, "--normal and -o are required");
     if (shading_path ? (image_path || albedo_path) : !(image_path && albedo_path))
-        return hd_usage_error(&spec, "give either --shading, or both --image and --albedo");
+        return cli_usage_error(&spec, "give either --shading, or both --image and --albedo");
 
     hd_image normal_rgb = {0}, normal = {0}, weight = {0}, shading = {0}, image = {0}, albedo = {0}, mask = {0};
-    int rc = HD_EXIT_FAIL;
+    int rc = CLI_EXIT_FAIL;
     if (hd_image_read_as(normal_path, 3, &normal_rgb) != HD_OK ||
         hd_normal_decode(&normal_rgb, &normal, &weight) != HD_OK) {
-        rc = hd_report("fit-light");
+        rc = cli_report("fit-light");
         goto done;
     }
     const size_t npix = (size_t)normal.width * normal.height;
     if (shading_path) {
         if (hd_image_read_as(shading_path, 1, &shading) != HD_OK) {
-            rc = hd_report("fit-light");
+            rc = cli_report("fit-light");
             goto done;
         }
         if (!same_size(shading_path, &shading, normal_path, &normal)) goto done;
@@ -77,7 +77,7 @@ int cmd_fit_light(int argc, char **argv)
     } else {
         if (hd_image_read_as(image_path, 3, &image) != HD_OK || hd_image_read_as(albedo_path, 3, &albedo) != HD_OK ||
             hd_image_alloc(&shading, normal.width, normal.height, 1) != HD_OK) {
-            rc = hd_report("fit-light");
+            rc = cli_report("fit-light");
             goto done;
         }
         if (!same_size(image_path, &image, normal_path, &normal) ||
@@ -100,7 +100,7 @@ int cmd_fit_light(int argc, char **argv)
     }
     if (mask_path) {
         if (hd_image_read_as(mask_path, 1, &mask) != HD_OK) {
-            rc = hd_report("fit-light");
+            rc = cli_report("fit-light");
             goto done;
         }
         if (!same_size(mask_path, &mask, normal_path, &normal)) goto done;
@@ -120,7 +120,7 @@ int cmd_fit_light(int argc, char **argv)
     float light[HD_SH_COEFFS];
     if (hd_sh_fit(normal.data, shading.data, weight.data, (int)npix, light) != HD_OK ||
         hd_light_write(out, light) != HD_OK) {
-        rc = hd_report("fit-light");
+        rc = cli_report("fit-light");
         goto done;
     }
     /* weighted RMS of the residual b(n_p) . l - s_p */
@@ -134,7 +134,7 @@ int cmd_fit_light(int argc, char **argv)
     printf("light:");
     for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6f", (double)light[k]);
     printf("\npixels: %ld  rms residual: %.6f\n", used, sqrt(sq / wsum));
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
     hd_image_free(&normal_rgb);
     hd_image_free(&normal);

@@ -6,7 +6,7 @@
 #include <string.h>
 #include "cli.h"
 
-HD_COMMAND("info", cmd_info, "describe image, checkpoint (safetensors) and light files")
+CLI_COMMAND("info", cmd_info, "describe image, checkpoint (safetensors) and light files")
 
 typedef enum file_kind { KIND_IMAGE, KIND_SAFETENSORS, KIND_LIGHT } file_kind;
 
@@ -120,11 +120,11 @@ static int info_light(const char *path)
 int cmd_info(int argc, char **argv)
 {
     int show = 10;
-    const hd_opt opts[] = {
-        {"tensors", 0, HD_OPT_INT, &show, "N", "list the first N tensors of a checkpoint (default 10)"},
+    const cli_opt opts[] = {
+        {"tensors", 0, CLI_OPT_INT, &show, "N", "list the first N tensors of a checkpoint (default 10)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "info", "[--tensors N] FILE...",
         "Reads each file with hdnet's checked readers and says what it is: an image (PNG, JPEG or\n"
         "PFM: size, channels, bit depth, min/max/mean per channel), a checkpoint (safetensors:\n"
@@ -134,10 +134,10 @@ int cmd_info(int argc, char **argv)
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     if (show < 0) {
         free(pos);
-        return hd_usage_error(&spec, "--tensors must be >= 0");
+        return cli_usage_error(&spec, "--tensors must be >= 0");
     }
     int failed = 0;
     for (int i = 0; i < npos; i++) {
@@ -148,8 +148,8 @@ int cmd_info(int argc, char **argv)
         case KIND_LIGHT: bad = info_light(pos[i]); break;
         }
         fflush(stdout);
-        if (bad) failed = hd_report("info");
+        if (bad) failed = cli_report("info");
     }
     free(pos);
-    return failed ? HD_EXIT_FAIL : HD_EXIT_OK;
+    return failed ? CLI_EXIT_FAIL : CLI_EXIT_OK;
 }

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include "cli.h"
 
-HD_COMMAND("light", cmd_light, "make a light file (direction or preset) or show one on a sphere")
+CLI_COMMAND("light", cmd_light, "make a light file (direction or preset) or show one on a sphere")
 
 /* Writes the sphere picture of light to path (8-bit PNG). */
 static int write_sphere(const float light[HD_SH_COEFFS], int size, const char *path)
@@ -14,10 +14,10 @@ static int write_sphere(const float light[HD_SH_COEFFS], int size, const char *p
     hd_image sphere = {0};
     if (hd_light_sphere(light, size, &sphere) != HD_OK || hd_image_write_png(path, &sphere, 8) != HD_OK) {
         hd_image_free(&sphere);
-        return hd_report("light");
+        return cli_report("light");
     }
     hd_image_free(&sphere);
-    return HD_EXIT_OK;
+    return CLI_EXIT_OK;
 }
 
 /* Writes the HD_LIGHT_PRESETS preset spheres side by side (preset 0 on the left) to path. */
@@ -25,11 +25,11 @@ static int write_presets(int size, const char *path)
 {
     hd_image row = {0}, sphere = {0};
     float light[HD_SH_COEFFS];
-    if (hd_image_alloc(&row, size * HD_LIGHT_PRESETS, size, 3) != HD_OK) return hd_report("light");
+    if (hd_image_alloc(&row, size * HD_LIGHT_PRESETS, size, 3) != HD_OK) return cli_report("light");
     for (int k = 0; k < HD_LIGHT_PRESETS; k++) {
         if (hd_light_preset(k, light) != HD_OK || hd_light_sphere(light, size, &sphere) != HD_OK) {
             hd_image_free(&row);
-            return hd_report("light");
+            return cli_report("light");
         }
         for (int c = 0; c < 3; c++)
             for (int y = 0; y < size; y++)
@@ -38,14 +38,14 @@ static int write_presets(int size, const char *path)
                         sphere.data[((size_t)c * size + y) * size + x];
         hd_image_free(&sphere);
     }
-    int rc = hd_image_write_png(path, &row, 8) == HD_OK ? HD_EXIT_OK : hd_report("light");
+    int rc = hd_image_write_png(path, &row, 8) == HD_OK ? CLI_EXIT_OK : cli_report("light");
     hd_image_free(&row);
     return rc;
 }
 
 int cmd_light(int argc, char **argv)
 {
-    hd_opt_floats dir = {.max = 2};
+    cli_opt_floats dir = {.max = 2};
     int preset = INT_MIN, size = 256, presets = 0;
     float intensity = NAN, ambient = NAN;
     const char *show = NULL, *out = NULL, *preview = NULL;
@@ -54,20 +54,20 @@ int cmd_light(int argc, char **argv)
              (double)HD_LIGHT_DEFAULT_INTENSITY);
     snprintf(ambient_help, sizeof ambient_help, "constant shading added everywhere (default %g)",
              (double)HD_LIGHT_DEFAULT_AMBIENT);
-    const hd_opt opts[] = {
-        {"dir", 0, HD_OPT_FLOATS, &dir, "AZ,EL",
+    const cli_opt opts[] = {
+        {"dir", 0, CLI_OPT_FLOATS, &dir, "AZ,EL",
          "light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
-        {"intensity", 0, HD_OPT_FLOAT, &intensity, "I", intensity_help},
-        {"ambient", 0, HD_OPT_FLOAT, &ambient, "A", ambient_help},
-        {"preset", 0, HD_OPT_INT, &preset, "K", "built-in light K in 0..6 (a light circling the view axis)"},
-        {"presets", 0, HD_OPT_FLAG, &presets, NULL, "draw all presets side by side (0 on the left) into -o"},
-        {"show", 0, HD_OPT_STRING, &show, "LIGHT.txt", "draw this light file on a sphere into -o"},
-        {"output", 'o', HD_OPT_STRING, &out, "FILE", "the light file written (with --show, --presets: the PNG)"},
-        {"preview", 0, HD_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
-        {"size", 0, HD_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
+        {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
+        {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
+        {"preset", 0, CLI_OPT_INT, &preset, "K", "built-in light K in 0..6 (a light circling the view axis)"},
+        {"presets", 0, CLI_OPT_FLAG, &presets, NULL, "draw all presets side by side (0 on the left) into -o"},
+        {"show", 0, CLI_OPT_STRING, &show, "LIGHT.txt", "draw this light file on a sphere into -o"},
+        {"output", 'o', CLI_OPT_STRING, &out, "FILE", "the light file written (with --show, --presets: the PNG)"},
+        {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
+        {"size", 0, CLI_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "light",
         "(--dir AZ,EL [--intensity I] [--ambient A] | --preset K) -o light.txt [--preview sphere.png]\n"
         "       hdnet light --show light.txt -o sphere.png [--size N]\n"
@@ -78,39 +78,39 @@ int cmd_light(int argc, char **argv)
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
 
     const int modes = (dir.count > 0) + (preset != INT_MIN) + (show != NULL) + presets;
-    if (modes != 1) return hd_usage_error(&spec, "give exactly one of --dir, --preset, --show and --presets");
-    if (!out) return hd_usage_error(&spec, "-o is required");
-    if (size < 1 || size > 4096) return hd_usage_error(&spec, "--size must be in 1..4096, got %d", size);
+    if (modes != 1) return cli_usage_error(&spec, "give exactly one of --dir, --preset, --show and --presets");
+    if (!out) return cli_usage_error(&spec, "-o is required");
+    if (size < 1 || size > 4096) return cli_usage_error(&spec, "--size must be in 1..4096, got %d", size);
     if (dir.count == 0 && (!isnan(intensity) || !isnan(ambient)))
-        return hd_usage_error(&spec, "--intensity and --ambient go with --dir");
+        return cli_usage_error(&spec, "--intensity and --ambient go with --dir");
     if ((show || presets) && preview)
-        return hd_usage_error(&spec, "--preview goes with --dir or --preset (--show and --presets write -o)");
+        return cli_usage_error(&spec, "--preview goes with --dir or --preset (--show and --presets write -o)");
     if (presets) return write_presets(size, out);
 
     float light[HD_SH_COEFFS];
     if (show) {
-        if (hd_light_read(show, light) != HD_OK) return hd_report("light");
+        if (hd_light_read(show, light) != HD_OK) return cli_report("light");
         return write_sphere(light, size, out);
     }
     if (dir.count > 0) {
-        if (dir.count != 2) return hd_usage_error(&spec, "--dir wants two numbers AZ,EL");
+        if (dir.count != 2) return cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
         if (dir.v[1] < -90.0f || dir.v[1] > 90.0f)
-            return hd_usage_error(&spec, "the elevation must be in -90..90 degrees, got %g", (double)dir.v[1]);
+            return cli_usage_error(&spec, "the elevation must be in -90..90 degrees, got %g", (double)dir.v[1]);
         if (isnan(intensity)) intensity = HD_LIGHT_DEFAULT_INTENSITY;
         if (isnan(ambient)) ambient = HD_LIGHT_DEFAULT_AMBIENT;
         if (intensity < 0.0f || ambient < 0.0f)
-            return hd_usage_error(&spec, "--intensity and --ambient must not be negative");
+            return cli_usage_error(&spec, "--intensity and --ambient must not be negative");
         hd_light_from_direction(dir.v[0], dir.v[1], intensity, ambient, light);
     } else {
         if (preset < 0 || preset >= HD_LIGHT_PRESETS)
-            return hd_usage_error(&spec, "--preset must be in 0..%d, got %d", HD_LIGHT_PRESETS - 1, preset);
-        if (hd_light_preset(preset, light) != HD_OK) return hd_report("light");
+            return cli_usage_error(&spec, "--preset must be in 0..%d, got %d", HD_LIGHT_PRESETS - 1, preset);
+        if (hd_light_preset(preset, light) != HD_OK) return cli_report("light");
     }
-    if (hd_light_write(out, light) != HD_OK) return hd_report("light");
+    if (hd_light_write(out, light) != HD_OK) return cli_report("light");
     if (preview) return write_sphere(light, size, preview);
-    return HD_EXIT_OK;
+    return CLI_EXIT_OK;
 }

@@ -11,7 +11,7 @@
 #include "core/core.h"
 #include "video_cli.h"
 
-HD_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
+CLI_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
 
 /* The core: decomposes tex once and relights it under each of count lights (relit[count]); delit
  * (may be NULL) receives the albedo under flat light. */
@@ -54,7 +54,7 @@ int cmd_relight(int argc, char **argv)
 {
     const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
     const char *sheet_path = NULL;
-    hd_opt_floats dir = {.max = 2};
+    cli_opt_floats dir = {.max = 2};
     float intensity = NAN, ambient = NAN;
     int keep = 0, no_keep = 0, aligned = 0;
     hd_cli_clip clip = {0};
@@ -63,25 +63,25 @@ int cmd_relight(int argc, char **argv)
              (double)HD_LIGHT_DEFAULT_INTENSITY);
     snprintf(ambient_help, sizeof ambient_help, "with --dir: constant shading added everywhere (default %g)",
              (double)HD_LIGHT_DEFAULT_AMBIENT);
-    const hd_opt opts[] = {
-        HD_OPT_MODEL_ROW(model_path),
-        {"light", 0, HD_OPT_STRING, &light_path, "L.txt", "target light file (9 SH coefficients, DPR order)"},
-        {"preset", 0, HD_OPT_STRING, &preset, "K|all",
+    const cli_opt opts[] = {
+        CLI_OPT_MODEL_ROW(model_path),
+        {"light", 0, CLI_OPT_STRING, &light_path, "L.txt", "target light file (9 SH coefficients, DPR order)"},
+        {"preset", 0, CLI_OPT_STRING, &preset, "K|all",
          "built-in light K in 0..6; 'all' writes all seven, -o is then a folder"},
-        {"dir", 0, HD_OPT_FLOATS, &dir, "AZ,EL",
+        {"dir", 0, CLI_OPT_FLOATS, &dir, "AZ,EL",
          "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
-        {"intensity", 0, HD_OPT_FLOAT, &intensity, "I", intensity_help},
-        {"ambient", 0, HD_OPT_FLOAT, &ambient, "A", ambient_help},
-        {"output", 'o', HD_OPT_STRING, &out, "OUT", "relit image (8-bit PNG, or .pfm float32); with --preset all a folder"},
-        HD_OPT_FACE_MASK_ROW(mask_path),
-        {"keep-brightness", 0, HD_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
-        {"no-keep-brightness", 0, HD_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
-        {"sheet", 0, HD_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
-        HD_OPT_ALIGNED_ROW(aligned),
+        {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
+        {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
+        {"output", 'o', CLI_OPT_STRING, &out, "OUT", "relit image (8-bit PNG, or .pfm float32); with --preset all a folder"},
+        CLI_OPT_FACE_MASK_ROW(mask_path),
+        {"keep-brightness", 0, CLI_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
+        {"no-keep-brightness", 0, CLI_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
+        {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
+        CLI_OPT_ALIGNED_ROW(aligned),
         HD_OPT_CLIP_ROWS(clip),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "relight",
         "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT "
         "[--aligned]",
@@ -95,17 +95,17 @@ int cmd_relight(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *image_path = pos[0];
     free(pos);
 
     const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0);
-    if (modes != 1) return hd_usage_error(&spec, "give exactly one of --light, --preset and --dir");
-    if (dir.count == 1) return hd_usage_error(&spec, "--dir wants two numbers AZ,EL");
+    if (modes != 1) return cli_usage_error(&spec, "give exactly one of --light, --preset and --dir");
+    if (dir.count == 1) return cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
     if ((!isnan(intensity) || !isnan(ambient)) && dir.count == 0)
-        return hd_usage_error(&spec, "--intensity and --ambient go with --dir");
-    if (!out) return hd_usage_error(&spec, "-o is required");
-    if (keep && no_keep) return hd_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
+        return cli_usage_error(&spec, "--intensity and --ambient go with --dir");
+    if (!out) return cli_usage_error(&spec, "-o is required");
+    if (keep && no_keep) return cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
     const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
 
     float lights[HD_LIGHT_PRESETS][HD_SH_COEFFS];
@@ -118,7 +118,7 @@ int cmd_relight(int argc, char **argv)
             count = HD_LIGHT_PRESETS;
             for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, lights[i]);
         } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
-            return hd_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
+            return cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
         } else {
             hd_light_preset((int)k, lights[0]);
         }
@@ -126,10 +126,10 @@ int cmd_relight(int argc, char **argv)
         hd_light_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
                                 isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient, lights[0]);
     } else if (hd_light_read(light_path, lights[0]) != HD_OK) {
-        return hd_report("relight");
+        return cli_report("relight");
     }
     if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
-        return all || sheet_path ? hd_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)")
+        return all || sheet_path ? cli_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)")
                                  : hd_cli_video("relight", image_path, out, model_path, lights[0], NULL, brightness, &clip);
 
     const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
@@ -139,19 +139,19 @@ int cmd_relight(int argc, char **argv)
     hd_image relit[HD_LIGHT_PRESETS];
     memset(relit, 0, sizeof relit);
     char *mask_source = NULL, *stem = NULL;
-    int rc = HD_EXIT_FAIL;
+    int rc = CLI_EXIT_FAIL;
     if (photo) {
         int nfaces = 0;
         if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
             hd_aligner_load(&aligner) != HD_OK) {
-            rc = hd_report("relight");
+            rc = cli_report("relight");
             goto done;
         }
-        hd_note_mask("relight", 1, mask_path, NULL);
+        cli_note_mask("relight", 1, mask_path, NULL);
         hd_status st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])lights, count, brightness,
                                         relit, sheet_path ? &delit : NULL, &nfaces);
         if (st != HD_OK) {
-            hd_report_photo("relight", st, image_path);
+            cli_report_photo("relight", st, image_path);
             goto done;
         }
         printf("%s: relit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
@@ -159,20 +159,20 @@ int cmd_relight(int argc, char **argv)
         if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
             hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
             hd_model_load(model_path, &model) != HD_OK) {
-            rc = hd_report("relight");
+            rc = cli_report("relight");
             goto done;
         }
-        hd_note_mask("relight", 0, mask_path, mask_source);
+        cli_note_mask("relight", 0, mask_path, mask_source);
         if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
                             sheet_path ? &delit : NULL) != HD_OK) {
-            rc = hd_report("relight");
+            rc = cli_report("relight");
             goto done;
         }
     }
     if (all) {
         stem = hd_path_stem(image_path);
         if (!stem || hd_mkdirs(out) != HD_OK) {
-            rc = hd_report("relight");
+            rc = cli_report("relight");
             goto done;
         }
         for (int i = 0; i < count; i++) {
@@ -182,20 +182,20 @@ int cmd_relight(int argc, char **argv)
                 goto done;
             }
             if (hd_image_write_picture(file, &relit[i]) != HD_OK) {
-                rc = hd_report("relight");
+                rc = cli_report("relight");
                 goto done;
             }
         }
         printf("%s/%s.preset0.png .. preset%d.png\n", out, stem, count - 1);
     } else if (hd_image_write_picture(out, &relit[0]) != HD_OK) {
-        rc = hd_report("relight");
+        rc = cli_report("relight");
         goto done;
     }
     if (sheet_path && write_sheet(sheet_path, &tex, &delit, relit, count) != HD_OK) {
-        rc = hd_report("relight");
+        rc = cli_report("relight");
         goto done;
     }
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
     for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_image_free(&relit[i]);
     hd_image_free(&delit);

@@ -6,7 +6,7 @@
 #include <strings.h>
 #include "cli.h"
 
-HD_COMMAND("render", cmd_render, "render albedo x shading(normal, light) into an image")
+CLI_COMMAND("render", cmd_render, "render albedo x shading(normal, light) into an image")
 
 static int ends_with_pfm(const char *path)
 {
@@ -27,18 +27,18 @@ int cmd_render(int argc, char **argv)
 {
     const char *albedo_path = NULL, *normal_path = NULL, *light_path = NULL, *mask_path = NULL;
     const char *out = NULL, *shading_path = NULL;
-    const hd_opt opts[] = {
-        {"albedo", 0, HD_OPT_STRING, &albedo_path, "A.png", "albedo (RGB or gray, values in [0, 1])"},
-        {"normal", 0, HD_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
-        {"light", 0, HD_OPT_STRING, &light_path, "L.txt", "light file (9 SH coefficients, DPR order)"},
-        {"mask", 0, HD_OPT_STRING, &mask_path, "M.png",
+    const cli_opt opts[] = {
+        {"albedo", 0, CLI_OPT_STRING, &albedo_path, "A.png", "albedo (RGB or gray, values in [0, 1])"},
+        {"normal", 0, CLI_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
+        {"light", 0, CLI_OPT_STRING, &light_path, "L.txt", "light file (9 SH coefficients, DPR order)"},
+        {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png",
          "render only where the mask is > 0.5 (default: where the normal map is not 0)"},
-        {"output", 'o', HD_OPT_STRING, &out, "image.png", "the rendered image (8-bit PNG, or PFM if it ends in .pfm)"},
-        {"shading", 0, HD_OPT_STRING, &shading_path, "S.png",
+        {"output", 'o', CLI_OPT_STRING, &out, "image.png", "the rendered image (8-bit PNG, or PFM if it ends in .pfm)"},
+        {"shading", 0, CLI_OPT_STRING, &shading_path, "S.png",
          "also write the shading: 16-bit PNG of s/2, or exact PFM if it ends in .pfm"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "render", "--albedo A.png --normal N.png --light L.txt [--mask M.png] -o image.png [--shading S.png]",
         "Renders image = albedo x s(normal, light), the Lambertian model of the paper, with the\n"
         "spherical-harmonics shading of docs/conventions.md. Pixels outside the mask (or where the\n"
@@ -46,25 +46,25 @@ int cmd_render(int argc, char **argv)
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
     if (!albedo_path || !normal_path || !light_path || !out)
-        return hd_usage_error(&spec, "--albedo, --normal, --light and -o are required");
+        return cli_usage_error(&spec, "--albedo, --normal, --light and -o are required");
 
     hd_image albedo = {0}, normal_rgb = {0}, normal = {0}, normal_mask = {0}, mask = {0}, shading = {0},
              image = {0};
     float light[HD_SH_COEFFS];
-    int rc = HD_EXIT_FAIL;
+    int rc = CLI_EXIT_FAIL;
     if (hd_light_read(light_path, light) != HD_OK || hd_image_read_as(albedo_path, 3, &albedo) != HD_OK ||
         hd_image_read_as(normal_path, 3, &normal_rgb) != HD_OK ||
         hd_normal_decode(&normal_rgb, &normal, &normal_mask) != HD_OK) {
-        rc = hd_report("render");
+        rc = cli_report("render");
         goto done;
     }
     if (!same_size("render", albedo_path, &albedo, normal_path, &normal)) goto done;
     if (mask_path) {
         if (hd_image_read_as(mask_path, 1, &mask) != HD_OK) {
-            rc = hd_report("render");
+            rc = cli_report("render");
             goto done;
         }
         if (!same_size("render", mask_path, &mask, normal_path, &normal)) goto done;
@@ -72,7 +72,7 @@ int cmd_render(int argc, char **argv)
     const int w = normal.width, h = normal.height;
     const size_t npix = (size_t)w * h;
     if (hd_image_alloc(&shading, w, h, 1) != HD_OK || hd_image_alloc(&image, w, h, 3) != HD_OK) {
-        rc = hd_report("render");
+        rc = cli_report("render");
         goto done;
     }
     /* the mask used: the given one (> 0.5) and a decodable normal */
@@ -93,7 +93,7 @@ int cmd_render(int argc, char **argv)
             st = hd_image_write_png(shading_path, &shading, 16);
         }
     }
-    rc = st == HD_OK ? HD_EXIT_OK : hd_report("render");
+    rc = st == HD_OK ? CLI_EXIT_OK : cli_report("render");
 done:
     hd_image_free(&albedo);
     hd_image_free(&normal_rgb);

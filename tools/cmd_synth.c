@@ -5,7 +5,7 @@
 #include "cli.h"
 #include "core/core.h"
 
-HD_COMMAND("synth", cmd_synth, "generate paired synthetic faces with ground truth (albedo, normals, shading, light)")
+CLI_COMMAND("synth", cmd_synth, "generate paired synthetic faces with ground truth (albedo, normals, shading, light)")
 
 /* The help text below quotes these. */
 _Static_assert((int)HD_SYNTH_COARSE_ERROR_DEFAULT == 20 && (int)HD_SYNTH_COARSE_ERROR_MAX == 40,
@@ -24,25 +24,25 @@ int cmd_synth(int argc, char **argv)
     float jitter = 0.0f, coarse_error = HD_SYNTH_COARSE_ERROR_DEFAULT;
     const char *png = "store", *effects = "all";
     float camera = 0.0f;
-    const hd_opt opts[] = {
-        {"subjects", 0, HD_OPT_INT, &subjects, "N", "number of subjects (identities); required"},
-        {"per-subject", 0, HD_OPT_INT, &per_subject, "K", "images per subject, each with its own light (and pose); required"},
-        {"size", 0, HD_OPT_INT, &size, "S", "side of the aligned texture in pixels (default 256; 16..4096)"},
-        {"seed", 0, HD_OPT_INT, &seed, "X", "random seed; the same seed gives the same set (default 1)"},
-        {"pose-jitter", 0, HD_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
-        {"coarse-error", 0, HD_OPT_FLOAT, &coarse_error, "DEG",
+    const cli_opt opts[] = {
+        {"subjects", 0, CLI_OPT_INT, &subjects, "N", "number of subjects (identities); required"},
+        {"per-subject", 0, CLI_OPT_INT, &per_subject, "K", "images per subject, each with its own light (and pose); required"},
+        {"size", 0, CLI_OPT_INT, &size, "S", "side of the aligned texture in pixels (default 256; 16..4096)"},
+        {"seed", 0, CLI_OPT_INT, &seed, "X", "random seed; the same seed gives the same set (default 1)"},
+        {"pose-jitter", 0, CLI_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
+        {"coarse-error", 0, CLI_OPT_FLOAT, &coarse_error, "DEG",
          "size of the coarse normals' fit error, 0..40 (default 20: about 23 degrees off; 0: exact pose)"},
-        {"png", 0, HD_OPT_STRING, &png, "fast|store",
+        {"png", 0, CLI_OPT_STRING, &png, "fast|store",
          "PNG compression: store (default: uncompressed, 1.6 MB an image at 256, ~110 images/s a thread)\n"
          "or fast (zlib: half the disk, ~65 images/s a thread); the pixels are the same"},
-        {"camera", 0, HD_OPT_FLOAT, &camera, "P",
+        {"camera", 0, CLI_OPT_FLOAT, &camera, "P",
          "probability of each camera effect per image, 0..1 (default 0: none); YYYY.camera.txt lists those applied"},
-        {"camera-effects", 0, HD_OPT_STRING, &effects, "LIST",
+        {"camera-effects", 0, CLI_OPT_STRING, &effects, "LIST",
          "comma-separated: light-colour, blur, noise, white-balance, jpeg, or all (default all)"},
-        {"threads", 't', HD_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
+        {"threads", 't', CLI_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--camera P] [--threads N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
@@ -57,24 +57,24 @@ int cmd_synth(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *out = pos[0];
     free(pos);
-    if (subjects < 1) return hd_usage_error(&spec, "--subjects N (N >= 1) is required");
-    if (per_subject < 1) return hd_usage_error(&spec, "--per-subject K (K >= 1) is required");
-    if (size < 16 || size > 4096) return hd_usage_error(&spec, "--size %d outside [16, 4096]", size);
-    if (!(jitter >= 0.0f && jitter <= 45.0f)) return hd_usage_error(&spec, "--pose-jitter %g outside [0, 45]", jitter);
+    if (subjects < 1) return cli_usage_error(&spec, "--subjects N (N >= 1) is required");
+    if (per_subject < 1) return cli_usage_error(&spec, "--per-subject K (K >= 1) is required");
+    if (size < 16 || size > 4096) return cli_usage_error(&spec, "--size %d outside [16, 4096]", size);
+    if (!(jitter >= 0.0f && jitter <= 45.0f)) return cli_usage_error(&spec, "--pose-jitter %g outside [0, 45]", jitter);
     if (!(coarse_error >= 0.0f && coarse_error <= HD_SYNTH_COARSE_ERROR_MAX))
-        return hd_usage_error(&spec, "--coarse-error %g outside [0, %g]", coarse_error, HD_SYNTH_COARSE_ERROR_MAX);
+        return cli_usage_error(&spec, "--coarse-error %g outside [0, %g]", coarse_error, HD_SYNTH_COARSE_ERROR_MAX);
     if (strcmp(png, "fast") != 0 && strcmp(png, "store") != 0)
-        return hd_usage_error(&spec, "--png %s is neither fast nor store", png);
-    if (threads < 0) return hd_usage_error(&spec, "--threads %d must be >= 0", threads);
-    if (seed < 0) return hd_usage_error(&spec, "--seed %d must be >= 0", seed);
-    if ((long)subjects * per_subject > 100000000L) return hd_usage_error(&spec, "too many images (%d x %d)", subjects, per_subject);
+        return cli_usage_error(&spec, "--png %s is neither fast nor store", png);
+    if (threads < 0) return cli_usage_error(&spec, "--threads %d must be >= 0", threads);
+    if (seed < 0) return cli_usage_error(&spec, "--seed %d must be >= 0", seed);
+    if ((long)subjects * per_subject > 100000000L) return cli_usage_error(&spec, "too many images (%d x %d)", subjects, per_subject);
     if (threads > 0) hd_set_threads(threads);
     /* Thousands of pictures: each still appears whole (rename), but is not fsynced one by one. */
     hd_set_durable_writes(0);
-    if (!(camera >= 0.0f && camera <= 1.0f)) return hd_usage_error(&spec, "--camera %g outside [0, 1]", camera);
+    if (!(camera >= 0.0f && camera <= 1.0f)) return cli_usage_error(&spec, "--camera %g outside [0, 1]", camera);
     unsigned flags = 0;
     static const struct { const char *name; unsigned flag; } names[] = {
         {"all", HD_SYNTH_CAMERA_ALL}, {"light-colour", HD_SYNTH_CAMERA_LIGHT_COLOUR}, {"blur", HD_SYNTH_CAMERA_BLUR},
@@ -84,7 +84,7 @@ int cmd_synth(int argc, char **argv)
         unsigned f = 0;
         for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
             if (strlen(names[k].name) == n && strncmp(p, names[k].name, n) == 0) f = names[k].flag;
-        if (!f) return hd_usage_error(&spec, "--camera-effects: unknown effect '%.*s'", (int)n, p);
+        if (!f) return cli_usage_error(&spec, "--camera-effects: unknown effect '%.*s'", (int)n, p);
         flags |= f;
         p += n + (p[n] == ',');
     }
@@ -92,7 +92,7 @@ int cmd_synth(int argc, char **argv)
                           {camera, flags}};
     hd_progress p;
     hd_progress_start(&p, "synth", (long)subjects * per_subject);
-    if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return hd_report("synth");
+    if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return cli_report("synth");
     hd_progress_finish(&p, (long)subjects * per_subject, NULL);
-    return HD_EXIT_OK;
+    return CLI_EXIT_OK;
 }

@@ -9,7 +9,7 @@
 #include "model/train.h"
 #include "mpi.h"
 
-HD_COMMAND("train", cmd_train, "train HD-Net on pairs of face images (two stages, resumable)")
+CLI_COMMAND("train", cmd_train, "train HD-Net on pairs of face images (two stages, resumable)")
 
 static volatile sig_atomic_t stop_requested;
 
@@ -33,12 +33,12 @@ static int train_failed(hd_status s, const char *out)
 {
     if (cli_mpi_ranks() > 1) {
         fprintf(stderr, "hdnet train: rank %d of %d: %s\n", cli_mpi_rank(), cli_mpi_ranks(), hd_error());
-        cli_mpi_abort(HD_EXIT_FAIL);
+        cli_mpi_abort(CLI_EXIT_FAIL);
     } else {
-        hd_report("train");
+        cli_report("train");
     }
     if (s == HD_ERR_NUMERIC) fprintf(stderr, "hdnet train: stopped; the last good checkpoint in %s is kept\n", out);
-    return HD_EXIT_FAIL;
+    return CLI_EXIT_FAIL;
 }
 
 int cmd_train(int argc, char **argv)
@@ -51,50 +51,50 @@ int cmd_train(int argc, char **argv)
     int mirror = 0;
     float w[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) w[k] = NAN;
-    const hd_opt opts[] = {
-        {"output", 'o', HD_OPT_STRING, &out, "RUN", "the run folder (model, checkpoint, loss.csv, loss.png, samples/)"},
-        {"stage", 0, HD_OPT_INT, &stage, "1|2", "training stage (default 1; stage 2 starts from --init RUN1/model.safetensors)"},
-        {"iters", 0, HD_OPT_INT, &iters, "N", "iterations of this run in total, counting resumed ones (default 1000)"},
-        {"lnet-iters", 0, HD_OPT_INT, &lnet_iters, "N", "stage 2: iterations training L-Net only first (default iters/5)"},
-        {"batch", 0, HD_OPT_INT, &batch, "B", "pairs per iteration (default 8, or the checkpoint's)"},
-        {"micro-batch", 0, HD_OPT_INT, &micro, "M", "pairs per forward pass, dividing B: same gradient, less memory (default: B, or what fits 6 GB)"},
-        {"size", 0, HD_OPT_INT, &size, "S", "model input side, a multiple of 32 (default 256, or the checkpoint's)"},
-        {"width", 0, HD_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
-        {"resume", 0, HD_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},
-        {"time-limit", 0, HD_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
-        {"threads", 0, HD_OPT_INT, &threads, "T", "threads (default: all)"},
-        {"lr", 0, HD_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
-        {"weights", 0, HD_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
-        {"w-rec", 0, HD_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
-        {"w-albedo", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
-        {"w-smooth", 0, HD_OPT_FLOAT, &w[HD_LOSS_SMOOTH], "X", "weight of L_s (gt 0.1, dpr 0.01)"},
-        {"w-normal", 0, HD_OPT_FLOAT, &w[HD_LOSS_NORMAL], "X", "weight of L_n (0.5)"},
-        {"w-light", 0, HD_OPT_FLOAT, &w[HD_LOSS_LIGHT], "X", "weight of L_l (0.01)"},
-        {"w-srec", 0, HD_OPT_FLOAT, &w[HD_LOSS_SREC], "X", "weight of L_Srec (0.01)"},
-        {"w-adv", 0, HD_OPT_FLOAT, &w[HD_LOSS_ADV], "X", "weight of L_adv (gt 0.001, dpr 0.0001)"},
-        {"w-albedo-gt", 0, HD_OPT_FLOAT, &w[HD_LOSS_ALBEDO_GT], "X",
+    const cli_opt opts[] = {
+        {"output", 'o', CLI_OPT_STRING, &out, "RUN", "the run folder (model, checkpoint, loss.csv, loss.png, samples/)"},
+        {"stage", 0, CLI_OPT_INT, &stage, "1|2", "training stage (default 1; stage 2 starts from --init RUN1/model.safetensors)"},
+        {"iters", 0, CLI_OPT_INT, &iters, "N", "iterations of this run in total, counting resumed ones (default 1000)"},
+        {"lnet-iters", 0, CLI_OPT_INT, &lnet_iters, "N", "stage 2: iterations training L-Net only first (default iters/5)"},
+        {"batch", 0, CLI_OPT_INT, &batch, "B", "pairs per iteration (default 8, or the checkpoint's)"},
+        {"micro-batch", 0, CLI_OPT_INT, &micro, "M", "pairs per forward pass, dividing B: same gradient, less memory (default: B, or what fits 6 GB)"},
+        {"size", 0, CLI_OPT_INT, &size, "S", "model input side, a multiple of 32 (default 256, or the checkpoint's)"},
+        {"width", 0, CLI_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
+        {"resume", 0, CLI_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},
+        {"time-limit", 0, CLI_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
+        {"threads", 0, CLI_OPT_INT, &threads, "T", "threads (default: all)"},
+        {"lr", 0, CLI_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
+        {"weights", 0, CLI_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
+        {"w-rec", 0, CLI_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
+        {"w-albedo", 0, CLI_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
+        {"w-smooth", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SMOOTH], "X", "weight of L_s (gt 0.1, dpr 0.01)"},
+        {"w-normal", 0, CLI_OPT_FLOAT, &w[HD_LOSS_NORMAL], "X", "weight of L_n (0.5)"},
+        {"w-light", 0, CLI_OPT_FLOAT, &w[HD_LOSS_LIGHT], "X", "weight of L_l (0.01)"},
+        {"w-srec", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SREC], "X", "weight of L_Srec (0.01)"},
+        {"w-adv", 0, CLI_OPT_FLOAT, &w[HD_LOSS_ADV], "X", "weight of L_adv (gt 0.001, dpr 0.0001)"},
+        {"w-albedo-gt", 0, CLI_OPT_FLOAT, &w[HD_LOSS_ALBEDO_GT], "X",
          "not the paper's: weight of mean_m|A - A_gt| on sets with NAME.albedo.png (default 0)"},
-        {"w-shading-mean", 0, HD_OPT_FLOAT, &w[HD_LOSS_SHADING_MEAN], "X",
+        {"w-shading-mean", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_MEAN], "X",
          "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
-        {"shading-mean", 0, HD_OPT_FLOAT, &shading_mean, "C",
+        {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",
          "the scale anchor's target mean shading over the face (default 0.8)"},
-        {"real", 0, HD_OPT_STRING, &real_dir, "DIR",
+        {"real", 0, CLI_OPT_STRING, &real_dir, "DIR",
          "a second set (aligned photos, no ground truth) whose pairs are mixed into every batch"},
-        {"real-share", 0, HD_OPT_FLOAT, &real_share, "F", "probability that a pair comes from --real (default 0.5)"},
-        {"real-weight", 0, HD_OPT_FLOAT, &real_weight, "X", "loss weight of --real pairs, every term but L_adv (default 1)"},
-        {"mirror-pairs", 0, HD_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
-        {"prior-normals", 0, HD_OPT_STRING, &prior, "coarse|gt",
+        {"real-share", 0, CLI_OPT_FLOAT, &real_share, "F", "probability that a pair comes from --real (default 0.5)"},
+        {"real-weight", 0, CLI_OPT_FLOAT, &real_weight, "X", "loss weight of --real pairs, every term but L_adv (default 1)"},
+        {"mirror-pairs", 0, CLI_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
+        {"prior-normals", 0, CLI_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
-        {"light-target", 0, HD_OPT_STRING, &light_target, "fit|gt",
+        {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt",
          "l_hat of L_l: the least-squares fit (default) or, not the paper's, NAME.light.txt where present"},
-        {"every", 0, HD_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
-        {"seed", 0, HD_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
-        {"init", 0, HD_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
-        {"dump-grads", 0, HD_OPT_STRING, &dump, "FILE", "write the first step's batch, parameters, losses and gradients"},
-        {"quiet", 'q', HD_OPT_FLAG, &quiet, NULL, "no progress line"},
+        {"every", 0, CLI_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
+        {"seed", 0, CLI_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
+        {"init", 0, CLI_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
+        {"dump-grads", 0, CLI_OPT_STRING, &dump, "FILE", "write the first step's batch, parameters, losses and gradients"},
+        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "no progress line"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "train", "DATA -o RUN [options]",
         "Trains HD-Net on DATA, a folder of subject folders of aligned faces with companions\n"
         "(NAME.mask.png, NAME.normal.png; stage 1 needs the coarse normals). Each iteration takes\n"
@@ -106,28 +106,28 @@ int cmd_train(int argc, char **argv)
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *data = pos[0];
     free(pos);
-    if (!out) return hd_usage_error(&spec, "-o RUN is required");
-    if (stage != 1 && stage != 2) return hd_usage_error(&spec, "--stage must be 1 or 2");
-    if (iters < 1) return hd_usage_error(&spec, "--iters must be positive");
-    if (every < 1) return hd_usage_error(&spec, "--every must be positive");
+    if (!out) return cli_usage_error(&spec, "-o RUN is required");
+    if (stage != 1 && stage != 2) return cli_usage_error(&spec, "--stage must be 1 or 2");
+    if (iters < 1) return cli_usage_error(&spec, "--iters must be positive");
+    if (every < 1) return cli_usage_error(&spec, "--every must be positive");
     if (batch < 0 || micro < 0 || size < 0 || width < 0 || threads < 0 || seed < 0 || time_limit < 0 || lr < 0)
-        return hd_usage_error(&spec, "sizes, counts, the seed, the time limit and the learning rate must not be negative");
-    if (size && size % 32) return hd_usage_error(&spec, "--size must be a multiple of 32");
-    if (resume && init) return hd_usage_error(&spec, "--resume and --init exclude each other");
+        return cli_usage_error(&spec, "sizes, counts, the seed, the time limit and the learning rate must not be negative");
+    if (size && size % 32) return cli_usage_error(&spec, "--size must be a multiple of 32");
+    if (resume && init) return cli_usage_error(&spec, "--resume and --init exclude each other");
     if (strcmp(prior, "coarse") != 0 && strcmp(prior, "gt") != 0)
-        return hd_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
+        return cli_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
     if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0)
-        return hd_usage_error(&spec, "--light-target must be fit or gt, not '%s'", light_target);
+        return cli_usage_error(&spec, "--light-target must be fit or gt, not '%s'", light_target);
 
     hd_train_options o;
     hd_train_defaults(&o);
-    if (hd_loss_weights_preset(weights, &o.weights) != HD_OK) return hd_usage_error(&spec, "%s", hd_error());
+    if (hd_loss_weights_preset(weights, &o.weights) != HD_OK) return cli_usage_error(&spec, "%s", hd_error());
     for (int k = 0; k < HD_LOSS_TERMS; k++) {
         if (isnan(w[k])) continue;
-        if (w[k] < 0) return hd_usage_error(&spec, "--w-%s must not be negative", hd_loss_names[k]);
+        if (w[k] < 0) return cli_usage_error(&spec, "--w-%s must not be negative", hd_loss_names[k]);
         o.weights.w[k] = w[k];
     }
     o.data_dir = data;
@@ -145,11 +145,11 @@ int cmd_train(int argc, char **argv)
     o.every = every;
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;
-    if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return hd_usage_error(&spec, "--shading-mean must be in (0, 100)");
+    if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return cli_usage_error(&spec, "--shading-mean must be in (0, 100)");
     o.shading_mean = shading_mean;
-    if (!(real_share >= 0.0f && real_share <= 1.0f)) return hd_usage_error(&spec, "--real-share must be in [0, 1]");
-    if (!(real_weight >= 0.0f && real_weight < 1e6f)) return hd_usage_error(&spec, "--real-weight must not be negative");
-    if (mirror && !real_dir) return hd_usage_error(&spec, "--mirror-pairs needs --real DIR");
+    if (!(real_share >= 0.0f && real_share <= 1.0f)) return cli_usage_error(&spec, "--real-share must be in [0, 1]");
+    if (!(real_weight >= 0.0f && real_weight < 1e6f)) return cli_usage_error(&spec, "--real-weight must not be negative");
+    if (mirror && !real_dir) return cli_usage_error(&spec, "--mirror-pairs needs --real DIR");
     o.real_dir = real_dir;
     o.real_share = real_share;
     o.real_weight = real_weight;
@@ -161,7 +161,7 @@ int cmd_train(int argc, char **argv)
     o.warn = warn;
     o.quiet = quiet;
     if (threads) hd_set_threads(threads);
-    if (cli_mpi_init(NULL, NULL)) return HD_EXIT_FAIL;
+    if (cli_mpi_init(NULL, NULL)) return CLI_EXIT_FAIL;
     o.reducer = (hd_reducer){cli_mpi_rank(), cli_mpi_ranks(), cli_mpi_sum_floats, cli_mpi_sum_doubles, NULL};
 
     struct sigaction sa;
@@ -179,13 +179,13 @@ int cmd_train(int argc, char **argv)
     double seconds = hd_seconds() - t0;
     int rank = cli_mpi_rank(), ranks = cli_mpi_ranks();
     cli_mpi_finish();
-    if (rank != 0) return r.end == HD_TRAIN_SIGNALLED ? HD_EXIT_FAIL : HD_EXIT_OK;
+    if (rank != 0) return r.end == HD_TRAIN_SIGNALLED ? CLI_EXIT_FAIL : CLI_EXIT_OK;
     if (ranks > 1 && r.steps > 0)
         fprintf(stderr, "hdnet train: %d ranks, %ld steps in %.2f s (%.3f s per step), %.2f s of it in MPI_Allreduce on rank 0\n",
                 ranks, r.steps, seconds, seconds / (double)r.steps, cli_mpi_seconds());
     if (r.steps == 0) {
         printf("nothing to do: %s is at iteration %ld (--iters %d)\n", out, r.iteration, iters);
-        return HD_EXIT_OK;
+        return CLI_EXIT_OK;
     }
     const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
     printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f "
@@ -194,7 +194,7 @@ int cmd_train(int argc, char **argv)
            r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.terms[7], r.last.terms[8], r.last.disc, out);
     if (r.end == HD_TRAIN_SIGNALLED) {
         fprintf(stderr, "hdnet train: stopped by a signal; continue with --resume\n");
-        return HD_EXIT_FAIL;
+        return CLI_EXIT_FAIL;
     }
-    return HD_EXIT_OK;
+    return CLI_EXIT_OK;
 }

@@ -5,8 +5,10 @@
 
 #include "commands.inc"
 
+#undef CLI_COMMAND
+#define CLI_COMMAND(name, fn, summary) {name, fn, summary},
 #undef HD_COMMAND
-#define HD_COMMAND(name, fn, summary) {name, fn, summary},
+#define HD_COMMAND CLI_COMMAND
 
 typedef struct command {
     const char *name;
@@ -31,7 +33,7 @@ int main(int argc, char **argv)
 {
     if (argc < 2) {
         print_help(stderr);
-        return HD_EXIT_USAGE;
+        return CLI_EXIT_USAGE;
     }
     const char *name = argv[1];
     if (strcmp(name, "help") == 0 || strcmp(name, "--help") == 0 || strcmp(name, "-h") == 0) {
@@ -42,17 +44,17 @@ int main(int argc, char **argv)
                     return commands[i].run(2, help_argv);
                 }
             fprintf(stderr, "hdnet: unknown command '%s'\n", argv[2]);
-            return HD_EXIT_USAGE;
+            return CLI_EXIT_USAGE;
         }
         print_help(stdout);
-        return HD_EXIT_OK;
+        return CLI_EXIT_OK;
     }
     if (strcmp(name, "--version") == 0) {
         printf("hdnet 0.1.0\n");
-        return HD_EXIT_OK;
+        return CLI_EXIT_OK;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(commands[i].name, name) == 0) return commands[i].run(argc - 1, argv + 1);
     fprintf(stderr, "hdnet: unknown command '%s' (see: hdnet help)\n", name);
-    return HD_EXIT_USAGE;
+    return CLI_EXIT_USAGE;
 }

@@ -6,7 +6,7 @@
 #include <string.h>
 #include "cli.h"
 
-int hd_usage_error(const hd_cmd_spec *spec, const char *fmt, ...)
+int cli_usage_error(const cli_cmd_spec *spec, const char *fmt, ...)
 {
     va_list ap;
     fprintf(stderr, "hdnet %s: usage error: ", spec->name);
@@ -14,25 +14,25 @@ int hd_usage_error(const hd_cmd_spec *spec, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     va_end(ap);
     fprintf(stderr, "\n(see: hdnet %s --help)\n", spec->name);
-    return HD_EXIT_USAGE;
+    return CLI_EXIT_USAGE;
 }
 
-int hd_report(const char *cmd)
+int cli_report(const char *cmd)
 {
     fprintf(stderr, "hdnet %s: %s\n", cmd, hd_error());
-    return HD_EXIT_FAIL;
+    return CLI_EXIT_FAIL;
 }
 
-int hd_report_photo(const char *cmd, hd_status st, const char *path)
+int cli_report_photo(const char *cmd, hd_status st, const char *path)
 {
     if (st == HD_ERR_NOTFOUND)
         fprintf(stderr, "hdnet %s: %s: no face found (give --aligned if it is an aligned face texture)\n", cmd, path);
     else
         fprintf(stderr, "hdnet %s: %s: %s\n", cmd, path, hd_error());
-    return HD_EXIT_FAIL;
+    return CLI_EXIT_FAIL;
 }
 
-void hd_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source)
+void cli_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source)
 {
     if (!mask_path) return;
     if (photo)
@@ -41,84 +41,84 @@ void hd_note_mask(const char *cmd, int photo, const char *mask_path, const char 
         fprintf(stderr, "hdnet %s: note: used %s beside the image, not --mask %s\n", cmd, mask_source, mask_path);
 }
 
-static const char *kind_metavar(const hd_opt *o)
+static const char *kind_metavar(const cli_opt *o)
 {
     if (o->metavar) return o->metavar;
     switch (o->kind) {
-    case HD_OPT_INT: return "N";
-    case HD_OPT_FLOAT: return "X";
-    case HD_OPT_STRING: return "S";
-    case HD_OPT_FLOATS: return "A,B";
-    case HD_OPT_FLAG: break;
+    case CLI_OPT_INT: return "N";
+    case CLI_OPT_FLOAT: return "X";
+    case CLI_OPT_STRING: return "S";
+    case CLI_OPT_FLOATS: return "A,B";
+    case CLI_OPT_FLAG: break;
     }
     return "";
 }
 
-void hd_opts_help(const hd_cmd_spec *spec, FILE *out)
+void cli_opts_help(const cli_cmd_spec *spec, FILE *out)
 {
     fprintf(out, "usage: hdnet %s %s\n", spec->name, spec->usage);
     if (spec->description) fprintf(out, "\n%s\n", spec->description);
     fprintf(out, "\noptions:\n");
-    for (const hd_opt *o = spec->opts; o && o->name; o++) {
+    for (const cli_opt *o = spec->opts; o && o->name; o++) {
         char left[96];
         int n = 0;
         if (o->short_name) n = snprintf(left, sizeof left, "-%c, ", o->short_name);
         else n = snprintf(left, sizeof left, "    ");
-        snprintf(left + n, sizeof left - (size_t)n, "--%s%s%s", o->name, o->kind == HD_OPT_FLAG ? "" : " ",
-                 o->kind == HD_OPT_FLAG ? "" : kind_metavar(o));
+        snprintf(left + n, sizeof left - (size_t)n, "--%s%s%s", o->name, o->kind == CLI_OPT_FLAG ? "" : " ",
+                 o->kind == CLI_OPT_FLAG ? "" : kind_metavar(o));
         fprintf(out, "  %-28s %s\n", left, o->help ? o->help : "");
     }
     fprintf(out, "  %-28s %s\n", "-h, --help", "show this help and exit");
 }
 
-static int parse_value(const hd_cmd_spec *spec, const hd_opt *o, const char *text)
+static int parse_value(const cli_cmd_spec *spec, const cli_opt *o, const char *text)
 {
     char *end = NULL;
     errno = 0;
     switch (o->kind) {
-    case HD_OPT_INT: {
+    case CLI_OPT_INT: {
         long v = strtol(text, &end, 10);
         if (end == text || *end || errno || v < -2147483647L || v > 2147483647L)
-            return hd_usage_error(spec, "--%s wants an integer, got '%s'", o->name, text);
+            return cli_usage_error(spec, "--%s wants an integer, got '%s'", o->name, text);
         *(int *)o->value = (int)v;
         return 0;
     }
-    case HD_OPT_FLOAT: {
+    case CLI_OPT_FLOAT: {
         float v = strtof(text, &end);
         if (end == text || *end || errno || !isfinite(v))
-            return hd_usage_error(spec, "--%s wants a number, got '%s'", o->name, text);
+            return cli_usage_error(spec, "--%s wants a number, got '%s'", o->name, text);
         *(float *)o->value = v;
         return 0;
     }
-    case HD_OPT_STRING:
+    case CLI_OPT_STRING:
         *(const char **)o->value = text;
         return 0;
-    case HD_OPT_FLOATS: {
-        hd_opt_floats *f = o->value;
+    case CLI_OPT_FLOATS: {
+        cli_opt_floats *f = o->value;
         int max = f->max > 0 && f->max <= 16 ? f->max : 16;
         f->count = 0;
         const char *s = text;
         for (;;) {
             if (f->count == max)
-                return hd_usage_error(spec, "--%s takes at most %d numbers, got '%s'", o->name, max, text);
+                return cli_usage_error(spec, "--%s takes at most %d numbers, got '%s'", o->name, max, text);
             errno = 0;
             float v = strtof(s, &end);
             if (end == s || errno || !isfinite(v))
-                return hd_usage_error(spec, "--%s wants comma-separated numbers, got '%s'", o->name, text);
+                return cli_usage_error(spec, "--%s wants comma-separated numbers, got '%s'", o->name, text);
             f->v[f->count++] = v;
             if (*end == '\0') break;
-            if (*end != ',') return hd_usage_error(spec, "--%s wants comma-separated numbers, got '%s'", o->name, text);
+            if (*end != ',') return cli_usage_error(spec, "--%s wants comma-separated numbers, got '%s'", o->name, text);
             s = end + 1;
         }
         return 0;
     }
-    case HD_OPT_FLAG:
+    case CLI_OPT_FLAG:
         break;
     }
     return 0;
 }
 
-int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
+int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
                   int *exit_code)
 {
     char **pos = calloc((size_t)argc + 1, sizeof *pos);
@@ -127,7 +127,7 @@ int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positi
     *npositional = 0;
     if (!pos) {
         fprintf(stderr, "hdnet %s: out of memory\n", spec->name);
-        *exit_code = HD_EXIT_FAIL;
+        *exit_code = CLI_EXIT_FAIL;
         return 1;
     }
     for (int i = 1; i < argc; i++) {
@@ -141,22 +141,22 @@ int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positi
             continue;
         }
         if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
-            hd_opts_help(spec, stdout);
+            cli_opts_help(spec, stdout);
             free(pos);
-            *exit_code = HD_EXIT_OK;
+            *exit_code = CLI_EXIT_OK;
             return 1;
         }
-        const hd_opt *found = NULL;
+        const cli_opt *found = NULL;
         const char *inline_value = NULL;
         if (a[1] == '-') {
             const char *name = a + 2;
             const char *eq = strchr(name, '=');
             size_t len = eq ? (size_t)(eq - name) : strlen(name);
-            for (const hd_opt *o = spec->opts; o && o->name; o++)
+            for (const cli_opt *o = spec->opts; o && o->name; o++)
                 if (strlen(o->name) == len && strncmp(o->name, name, len) == 0) found = o;
             if (eq) inline_value = eq + 1;
         } else if (a[2] == '\0') {
-            for (const hd_opt *o = spec->opts; o && o->name; o++)
+            for (const cli_opt *o = spec->opts; o && o->name; o++)
                 if (o->short_name == a[1]) found = o;
         } else if (a[1] == '.' || (a[1] >= '0' && a[1] <= '9')) {
             pos[np++] = argv[i]; /* a negative number */
@@ -164,13 +164,13 @@ int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positi
         }
         if (!found) {
             free(pos);
-            *exit_code = hd_usage_error(spec, "unknown option '%s'", a);
+            *exit_code = cli_usage_error(spec, "unknown option '%s'", a);
             return 1;
         }
-        if (found->kind == HD_OPT_FLAG) {
+        if (found->kind == CLI_OPT_FLAG) {
             if (inline_value) {
                 free(pos);
-                *exit_code = hd_usage_error(spec, "--%s takes no value", found->name);
+                *exit_code = cli_usage_error(spec, "--%s takes no value", found->name);
                 return 1;
             }
             *(int *)found->value = 1;
@@ -179,7 +179,7 @@ int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positi
         if (!inline_value) {
             if (i + 1 >= argc) {
                 free(pos);
-                *exit_code = hd_usage_error(spec, "--%s needs a value (%s)", found->name, kind_metavar(found));
+                *exit_code = cli_usage_error(spec, "--%s needs a value (%s)", found->name, kind_metavar(found));
                 return 1;
             }
             inline_value = argv[++i];
@@ -194,9 +194,9 @@ int hd_opts_parse(const hd_cmd_spec *spec, int argc, char **argv, char ***positi
     if (np < spec->positional_min || (spec->positional_max >= 0 && np > spec->positional_max)) {
         free(pos);
         if (np < spec->positional_min)
-            *exit_code = hd_usage_error(spec, "missing argument (usage: hdnet %s %s)", spec->name, spec->usage);
+            *exit_code = cli_usage_error(spec, "missing argument (usage: hdnet %s %s)", spec->name, spec->usage);
         else
-            *exit_code = hd_usage_error(spec, "too many arguments ('%s' is not expected)", argv[argc - 1]);
+            *exit_code = cli_usage_error(spec, "too many arguments ('%s' is not expected)", argv[argc - 1]);
         return 1;
     }
     *positional = pos;
