@@ -489,6 +489,26 @@ static int write_dataset(const char *dir, int size)
     return ok;
 }
 
+/* Records the progress calls of a run: each step's iteration and total, then the finishing call. */
+typedef struct progress_log {
+    int calls, finished, in_order;
+    long last;
+    double last_total;
+} progress_log;
+
+static void log_progress(const hd_train_progress *p, void *user)
+{
+    progress_log *l = user;
+    l->calls++;
+    if (p->finished) {
+        l->finished++;
+        return;
+    }
+    l->in_order &= p->iteration == l->last + 1 && p->step != NULL;
+    l->last = p->iteration;
+    l->last_total = p->step ? p->step->total : NAN;
+}
+
 static void run_options(hd_train_options *o, const char *run, long iters)
 {
     hd_train_defaults(o);
@@ -500,7 +520,6 @@ static void run_options(hd_train_options *o, const char *run, long iters)
     o->width = 4;
     o->every = 100; /* checkpoints at the end only: they are fsynced, and big (Adam moments) */
     o->seed = 5;
-    o->quiet = 1;
 }
 
 /* The loss columns (everything but the seconds) of a loss.csv. */
@@ -651,7 +670,13 @@ static void test_resume_and_errors(void)
     run_options(&o, "resumed", 6);
     o.resume = 1;
     o.batch = 0; /* taken from the checkpoint */
+    progress_log plog = {0, 0, 1, 3, 0};
+    o.progress = log_progress;
+    o.progress_user = &plog;
     CHECK(hd_train(&o, &r) == HD_OK && r.iteration == 6);
+    /* progress by callback: one call per step (iterations 4, 5, 6 of the resumed run), then the end */
+    CHECK(plog.calls == 4 && plog.finished == 1 && plog.in_order && plog.last == 6);
+    CHECK(plog.last_total == r.last.total);
     char *a = loss_rows("straight/loss.csv"), *b = loss_rows("resumed/loss.csv");
     CHECK(a && b && strcmp(a, b) == 0);
     if (a && b && strcmp(a, b)) fprintf(stderr, "uninterrupted:\n%sresumed:\n%s", a, b);

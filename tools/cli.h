@@ -71,6 +71,19 @@ int cli_report_photo(const char *cmd, hd_status st, const char *path);
  * (mask_source, as hd_face_mask_read found it) wins over it. */
 void cli_note_mask(const char *cmd, int photo, const char *mask_path, const char *mask_source);
 
+/* A progress reporter on stderr (tools/progress.c): on a terminal one rewritten line with rate and
+ * time left; otherwise a plain log line at most every `log_every` seconds (and at the end). */
+typedef struct cli_progress {
+    const char *label;
+    long total;
+    double start, last_print, log_every;
+    int tty;
+} cli_progress;
+void cli_progress_start(cli_progress *p, const char *label, long total);
+/* done = items finished so far; extra = a short text shown after the rate (may be NULL). */
+void cli_progress_update(cli_progress *p, long done, const char *extra);
+void cli_progress_finish(cli_progress *p, long done, const char *extra);
+
 /* The names before the cli_ prefix, kept for branches written against them; to be removed once
  * every branch has rebased (new code uses the cli_ / CLI_ names). */
 #define HD_COMMAND CLI_COMMAND
@@ -93,5 +106,9 @@ void cli_note_mask(const char *cmd, int photo, const char *mask_path, const char
 #define HD_OPT_MODEL_ROW CLI_OPT_MODEL_ROW
 #define HD_OPT_FACE_MASK_ROW CLI_OPT_FACE_MASK_ROW
 #define HD_OPT_ALIGNED_ROW CLI_OPT_ALIGNED_ROW
+#define hd_progress cli_progress
+#define hd_progress_start cli_progress_start
+#define hd_progress_update cli_progress_update
+#define hd_progress_finish cli_progress_finish
 
 #endif /* CLI_H */

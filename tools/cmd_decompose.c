@@ -315,8 +315,8 @@ int cmd_decompose(int argc, char **argv)
         rc = CLI_EXIT_FAIL;
         goto done;
     }
-    hd_progress progress;
-    if (jobs.count) hd_progress_start(&progress, "decompose", jobs.count);
+    cli_progress progress;
+    if (jobs.count) cli_progress_start(&progress, "decompose", jobs.count);
     for (int start = 0; start < jobs.count; start += batch) {
         int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
         for (int i = start; i < end; i++) {
@@ -350,9 +350,9 @@ int cmd_decompose(int argc, char **argv)
             hd_image_free(&tex[k]);
             hd_image_free(&mask[k]);
         }
-        hd_progress_update(&progress, end, NULL);
+        cli_progress_update(&progress, end, NULL);
     }
-    if (jobs.count) hd_progress_finish(&progress, jobs.count, NULL);
+    if (jobs.count) cli_progress_finish(&progress, jobs.count, NULL);
     free(tex), free(mask), free(d), free(sheets), free(index);
     printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
     if (failed) printf(" (%d failed)", failed);

@@ -13,9 +13,9 @@ _Static_assert((int)HD_SYNTH_COARSE_ERROR_DEFAULT == 20 && (int)HD_SYNTH_COARSE_
 
 static void on_progress(void *ctx, long done, long total)
 {
-    hd_progress *p = ctx;
+    cli_progress *p = ctx;
     (void)total;
-    if (done < p->total) hd_progress_update(p, done, NULL);
+    if (done < p->total) cli_progress_update(p, done, NULL);
 }
 
 int cmd_synth(int argc, char **argv)
@@ -90,9 +90,9 @@ int cmd_synth(int argc, char **argv)
     }
     hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter, coarse_error, strcmp(png, "store") == 0,
                           {camera, flags}};
-    hd_progress p;
-    hd_progress_start(&p, "synth", (long)subjects * per_subject);
+    cli_progress p;
+    cli_progress_start(&p, "synth", (long)subjects * per_subject);
     if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return cli_report("synth");
-    hd_progress_finish(&p, (long)subjects * per_subject, NULL);
+    cli_progress_finish(&p, (long)subjects * per_subject, NULL);
     return CLI_EXIT_OK;
 }

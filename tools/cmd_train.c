@@ -41,6 +41,24 @@ static int train_failed(hd_status s, const char *out)
     return CLI_EXIT_FAIL;
 }
 
+/* The progress line: the rate, the time left and the step's main losses. */
+static void on_progress(const hd_train_progress *p, void *user)
+{
+    cli_progress *line = user;
+    if (p->finished) {
+        cli_progress_finish(line, p->iteration, NULL);
+        return;
+    }
+    const hd_step_result *r = p->step;
+    char extra[200];
+    int len = snprintf(extra, sizeof extra, "loss %.4f rec %.4f alb %.4f n %.4f l %.4f srec %.4f adv %.3f D %.3f",
+                       r->total, r->terms[HD_LOSS_REC], r->terms[HD_LOSS_ALBEDO], r->terms[HD_LOSS_NORMAL],
+                       r->terms[HD_LOSS_LIGHT], r->terms[HD_LOSS_SREC], r->terms[HD_LOSS_ADV], r->disc);
+    if (p->albedo_gt && len > 0 && (size_t)len < sizeof extra)
+        snprintf(extra + len, sizeof extra - (size_t)len, " agt %.4f", r->terms[HD_LOSS_ALBEDO_GT]);
+    cli_progress_update(line, p->iteration, extra);
+}
+
 int cmd_train(int argc, char **argv)
 {
     const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit";
@@ -159,7 +177,12 @@ int cmd_train(int argc, char **argv)
     o.dump_grads = dump;
     o.stop = &stop_requested;
     o.warn = warn;
-    o.quiet = quiet;
+    cli_progress line;
+    cli_progress_start(&line, stage == 1 ? "train stage 1" : "train stage 2", iters);
+    if (!quiet) {
+        o.progress = on_progress;
+        o.progress_user = &line;
+    }
     if (threads) hd_set_threads(threads);
     if (cli_mpi_init(NULL, NULL)) return CLI_EXIT_FAIL;
     o.reducer = (hd_reducer){cli_mpi_rank(), cli_mpi_ranks(), cli_mpi_sum_floats, cli_mpi_sum_doubles, NULL};

@@ -1,5 +1,5 @@
 /* core.h: internal services every part of the library shares: error reporting, arenas, the
- * seeded RNG, atomic file writes, checked size arithmetic, timing and progress lines. */
+ * seeded RNG, atomic file writes, checked size arithmetic, monotonic time. */
 #ifndef HD_CORE_H
 #define HD_CORE_H
 
@@ -68,20 +68,8 @@ void hd_atomic_abort(hd_atomic_file *af);
 /* Reads a whole file (at most max_bytes) into a NUL-terminated buffer. */
 hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size);
 
-/* ---- time and progress */
+/* ---- time (progress lines are the CLI's: tools/progress.c) */
 double hd_seconds(void); /* monotonic */
-/* A progress reporter: on a terminal one rewritten line with rate and time left; otherwise a
- * plain log line at most every `log_every` seconds (and at the end). */
-typedef struct hd_progress {
-    const char *label;
-    long total;
-    double start, last_print, log_every;
-    int tty;
-} hd_progress;
-void hd_progress_start(hd_progress *p, const char *label, long total);
-/* done = items finished so far; extra = a short text shown after the rate (may be NULL). */
-void hd_progress_update(hd_progress *p, long done, const char *extra);
-void hd_progress_finish(hd_progress *p, long done, const char *extra);
 
 /* ---- paths */
 /* Joins dir and name with one '/'; result is malloc'ed (NULL with reason on failure). */

@@ -208,16 +208,6 @@ static hd_status save_all(const hd_trainer *t, const run_paths *p, const hd_trai
     return s;
 }
 
-/* The progress line's extra text for one step. */
-static void progress_text(const hd_trainer *t, const hd_step_result *res, char *extra, size_t n)
-{
-    int len = snprintf(extra, n, "loss %.4f rec %.4f alb %.4f n %.4f l %.4f srec %.4f adv %.3f D %.3f", res->total,
-                       res->terms[HD_LOSS_REC], res->terms[HD_LOSS_ALBEDO], res->terms[HD_LOSS_NORMAL],
-                       res->terms[HD_LOSS_LIGHT], res->terms[HD_LOSS_SREC], res->terms[HD_LOSS_ADV], res->disc);
-    if (t->weights.w[HD_LOSS_ALBEDO_GT] > 0.0f && len > 0 && (size_t)len < n)
-        snprintf(extra + len, n - (size_t)len, " agt %.4f", res->terms[HD_LOSS_ALBEDO_GT]);
-}
-
 /* Steps until the iteration count, a signal or the time limit. */
 /* Whether any rank was asked to stop (a signal, its time limit): every rank stops at the same
  * iteration, with rank 0's checkpoint. */
@@ -234,10 +224,9 @@ static hd_status agree_stop(const hd_trainer *t, int *stop_signal, int *stop_tim
 static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *ld, hd_pair_batch *next,
                           const run_paths *p, hd_train_log *log, hd_train_result *r)
 {
-    int writer = t->red.ranks <= 1 || t->red.rank == 0, quiet = o->quiet || !writer;
+    int writer = t->red.ranks <= 1 || t->red.rank == 0; /* rank 0 alone writes and reports */
     double start = hd_seconds();
-    hd_progress prog;
-    hd_progress_start(&prog, o->stage == HD_TRAIN_STAGE_1 ? "train stage 1" : "train stage 2", o->iters);
+    hd_train_progress prog = {o->stage, 0, o->iters, NULL, t->weights.w[HD_LOSS_ALBEDO_GT] > 0.0f, 0};
     if (t->iteration < o->iters) hd_loader_start(ld, t->iteration);
     int first_step = 1;
     hd_status s;
@@ -255,10 +244,10 @@ static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *l
         r->iteration = t->iteration;
         r->steps++;
         if (writer && (s = hd_train_log_add(log, t->iteration, &res, hd_seconds() - start)) != HD_OK) return s;
-        if (!quiet) {
-            char extra[200];
-            progress_text(t, &res, extra, sizeof extra);
-            hd_progress_update(&prog, t->iteration, extra);
+        if (writer && o->progress) {
+            prog.iteration = t->iteration;
+            prog.step = &r->last;
+            o->progress(&prog, o->progress_user);
         }
         int stop_signal = o->stop && *o->stop;
         int stop_time = o->time_limit_min > 0 && hd_seconds() - start >= o->time_limit_min * 60.0;
@@ -270,7 +259,10 @@ static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *l
             break;
         }
     }
-    if (!quiet) hd_progress_finish(&prog, t->iteration, NULL);
+    if (writer && o->progress) {
+        prog.finished = 1;
+        o->progress(&prog, o->progress_user);
+    }
     return HD_OK;
 }
 

@@ -1,7 +1,7 @@
 /* train.h: a whole HD-Net training run over a SPEC section 5 folder (hd_train): the options and
  * their defaults, stages 1, 2a and 2b, background loading, checkpoints with exact resume, the
- * training log, a stop on signal or time limit. Progress goes to a callback; the library prints
- * nothing. */
+ * training log, a stop on signal or time limit. Progress goes to a callback (the library prints
+ * nothing; `hdnet train` draws the progress line). */
 #ifndef HD_TRAIN_H
 #define HD_TRAIN_H
 
@@ -14,6 +14,15 @@ typedef enum hd_train_end {
     HD_TRAIN_TIME_LIMIT,  /* stopped at --time-limit (checkpoint written) */
     HD_TRAIN_SIGNALLED    /* stopped by SIGINT/SIGTERM (checkpoint written) */
 } hd_train_end;
+
+/* What a run reports after each step, to hd_train_options.progress. */
+typedef struct hd_train_progress {
+    hd_train_stage stage;
+    long iteration, iters;      /* steps done in total (counting resumed ones), the run's count */
+    const hd_step_result *step; /* the losses of the step just taken */
+    int albedo_gt;              /* the albedo_gt term is on (its weight is positive) */
+    int finished;               /* 1 on the extra call after the run's last step */
+} hd_train_progress;
 
 typedef struct hd_train_options {
     const char *data_dir, *run_dir;
@@ -40,7 +49,8 @@ typedef struct hd_train_options {
     const char *dump_grads; /* may be NULL */
     volatile sig_atomic_t *stop; /* set by a signal handler (may be NULL) */
     void (*warn)(const char *message); /* skipped images and the like (may be NULL) */
-    int quiet;             /* no progress line */
+    void (*progress)(const hd_train_progress *p, void *user); /* after every step (may be NULL) */
+    void *progress_user;
     /* Data-parallel training (docs/scaling.md): rank, rank count and the sum over ranks (zero:
      * alone). Every rank runs hd_train with the same options; rank 0 alone writes the run folder
      * and shows progress; the batch's micro-batches must divide among the ranks. */

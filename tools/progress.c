@@ -1,18 +1,11 @@
-/* progress.c: monotonic time and progress lines (a rewritten line on a terminal, plain log
- * lines otherwise) with rate and time left. */
+/* progress.c: the CLI's progress lines on stderr (a rewritten line on a terminal, plain log lines
+ * otherwise) with rate and time left; the library reports progress by callback and never prints. */
 #include <stdio.h>
-#include <time.h>
 #include <unistd.h>
+#include "cli.h"
 #include "core/core.h"
 
-double hd_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-void hd_progress_start(hd_progress *p, const char *label, long total)
+void cli_progress_start(cli_progress *p, const char *label, long total)
 {
     p->label = label;
     p->total = total;
@@ -34,7 +27,7 @@ static void format_duration(double s, char *buf, size_t n)
     else snprintf(buf, n, "%lds", t);
 }
 
-static void progress_print(hd_progress *p, long done, const char *extra, int final)
+static void progress_print(cli_progress *p, long done, const char *extra, int final)
 {
     double now = hd_seconds(), elapsed = now - p->start;
     double rate = elapsed > 0 ? (double)done / elapsed : 0.0;
@@ -53,11 +46,11 @@ static void progress_print(hd_progress *p, long done, const char *extra, int fin
     p->last_print = now;
 }
 
-void hd_progress_update(hd_progress *p, long done, const char *extra)
+void cli_progress_update(cli_progress *p, long done, const char *extra)
 {
     double now = hd_seconds();
     double every = p->tty ? 0.2 : p->log_every;
     if (now - p->last_print >= every) progress_print(p, done, extra, 0);
 }
 
-void hd_progress_finish(hd_progress *p, long done, const char *extra) { progress_print(p, done, extra, 1); }
+void cli_progress_finish(cli_progress *p, long done, const char *extra) { progress_print(p, done, extra, 1); }
