@@ -9,28 +9,11 @@
 #include "test.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
+#include "test_models.h"
 #include "align/photo_raster.h"
 
 static hd_mesh canonical;
 
-static int load_canonical(void)
-{
-    if (hd_mesh_load_canonical(&canonical) == HD_OK) return 1;
-    /* from the build tree the test binary has no ../models: use the source tree's */
-    const char *td = getenv("HDNET_TESTDATA");
-    if (td) {
-        char dir[4096];
-        snprintf(dir, sizeof dir, "%s", td);
-        char *slash = strrchr(dir, '/'); /* HDNET_TESTDATA is <source>/tests/data */
-        if (slash) *slash = '\0';
-        size_t len = strlen(dir);
-        snprintf(dir + len, sizeof dir - len, "/../models");
-        setenv("HDNET_DATA", dir, 1);
-        if (hd_mesh_load_canonical(&canonical) == HD_OK) return 1;
-    }
-    fprintf(stderr, "cannot load the canonical mesh: %s\n", hd_error());
-    return 0;
-}
 
 /* R = Rz(roll) Ry(yaw) Rx(pitch), degrees, row-major. */
 static void rotation(double yaw, double pitch, double roll, double R[9])
@@ -471,7 +454,7 @@ static void test_poisson(void)
 
 int main(void)
 {
-    if (!load_canonical()) return 1;
+    if (!test_load_canonical(&canonical)) return 1;
     test_fit();
     test_round_trip_and_normals();
     test_change_mode();

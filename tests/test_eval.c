@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
+#include "test_models.h"
 #include "core/core.h"
 
 static void test_normals(void)
@@ -174,18 +175,6 @@ static int copy_file(const char *from, const char *to)
     return ok;
 }
 
-static void use_source_models(void)
-{
-    const char *td = getenv("HDNET_TESTDATA");
-    if (!td || getenv("HDNET_DATA")) return;
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", td);
-    char *slash = strrchr(dir, '/');
-    if (slash) *slash = '\0';
-    size_t len = strlen(dir);
-    snprintf(dir + len, sizeof dir - len, "/../models");
-    setenv("HDNET_DATA", dir, 1);
-}
 
 /* The ground truth of a small synthetic set, scored as a prediction. */
 static void test_run(void)
@@ -245,7 +234,7 @@ static void test_run(void)
 
 int main(void)
 {
-    use_source_models();
+    test_use_source_models(0);
     test_normals();
     test_maps();
     test_kmeans();

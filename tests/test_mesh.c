@@ -6,25 +6,8 @@
 #include "test.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
+#include "test_models.h"
 
-static int load_canonical(hd_mesh *m)
-{
-    if (hd_mesh_load_canonical(m) == HD_OK) return 1;
-    /* from the build tree the test binary has no ../models: use the source tree's */
-    const char *td = getenv("HDNET_TESTDATA");
-    if (td) {
-        char dir[4096];
-        snprintf(dir, sizeof dir, "%s", td);
-        char *slash = strrchr(dir, '/'); /* HDNET_TESTDATA is <source>/tests/data */
-        if (slash) *slash = '\0';
-        size_t len = strlen(dir);
-        snprintf(dir + len, sizeof dir - len, "/../models");
-        setenv("HDNET_DATA", dir, 1);
-        if (hd_mesh_load_canonical(m) == HD_OK) return 1;
-    }
-    fprintf(stderr, "cannot load the canonical mesh: %s\n", hd_error());
-    return 0;
-}
 
 static void write_text(const char *path, const char *text)
 {
@@ -36,7 +19,7 @@ static void write_text(const char *path, const char *text)
 static void test_canonical(void)
 {
     hd_mesh m;
-    if (!load_canonical(&m)) {
+    if (!test_load_canonical(&m)) {
         test_failures++;
         return;
     }

@@ -11,20 +11,9 @@
 #include <string.h>
 #include <sys/stat.h>
 #include "test.h"
+#include "test_models.h"
 #include "core/core.h"
 
-static void use_source_models(void)
-{
-    const char *td = getenv("HDNET_TESTDATA");
-    if (!td || getenv("HDNET_DATA")) return;
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", td);
-    char *slash = strrchr(dir, '/'); /* HDNET_TESTDATA is <source>/tests/data */
-    if (slash) *slash = '\0';
-    size_t len = strlen(dir);
-    snprintf(dir + len, sizeof dir - len, "/../models");
-    setenv("HDNET_DATA", dir, 1);
-}
 
 static long long file_size_of(const char *path)
 {
@@ -502,7 +491,7 @@ static void test_camera(void)
 
 int main(void)
 {
-    use_source_models();
+    test_use_source_models(0);
     test_render();
     test_coarse_error();
     test_write_set();
