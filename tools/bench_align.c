@@ -8,9 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "bench.h"
-#include "core/core.h"
-#include "align/face_detect.h"
-#include "align/face_landmarks.h"
+#include "hdnet_tool.h"
 
 static int cmp_double(const void *a, const void *b)
 {

@@ -10,9 +10,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 #include "bench.h"
-#include "core/core.h"
-#include "model/hdnet_net.h"
-#include "model/train.h"
+#include "hdnet_tool.h"
 
 /* A synthetic batch: smooth colours, a round mask, normals of a sphere. */
 static void fill_batch(hd_pair_batch *b)

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "core/core.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("align", cmd_align, "find the faces in photos and unwarp each into the aligned texture space")
 

@@ -9,8 +9,7 @@
 #include <omp.h>
 #include "cli.h"
 #include "bench.h"
-#include "nn/nn.h"
-#include "model/unet.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("bench", cmd_bench, "measure SGEMM peak, convolution and network speed, memory")
 

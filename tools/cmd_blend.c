@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "core/core.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("blend", cmd_blend, "Poisson-blend an image (or an aligned face texture) into a photo")
 

@@ -9,8 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "core/core.h"
-#include "io/dataset.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("decompose", cmd_decompose, "albedo, shading, normals and light of the faces in photos or aligned textures")
 

@@ -6,10 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "core/core.h"
-#include "align/face_detect.h"
-#include "align/face_landmarks.h"
-#include "mesh/mesh.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("detect", cmd_detect, "find faces and their 468 landmarks in a photo; print, save or draw them")
 

@@ -2,8 +2,7 @@
  * initialisation from a seed), the same parameters `hdnet train --seed N` starts from. */
 #include <stdlib.h>
 #include "cli.h"
-#include "model/checkpoint.h"
-#include "model/train.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("init", cmd_init, "write a freshly initialised model (width, size, seed)")
 

@@ -3,7 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "core/core.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("synth", cmd_synth, "generate paired synthetic faces with ground truth (albedo, normals, shading, light)")
 

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
-#include "model/train.h"
+#include "hdnet_tool.h"
 #include "mpi.h"
 
 CLI_COMMAND("train", cmd_train, "train HD-Net on pairs of face images (two stages, resumable)")

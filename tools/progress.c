@@ -3,7 +3,7 @@
 #include <stdio.h>
 #include <unistd.h>
 #include "cli.h"
-#include "core/core.h"
+#include "hdnet_tool.h"
 
 void cli_progress_start(cli_progress *p, const char *label, long total)
 {

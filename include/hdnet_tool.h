@@ -1,0 +1,20 @@
+/* hdnet_tool.h: the internal tool API. Everything the hdnet command (tools/), its benchmarks and
+ * the tests use beyond the public API of hdnet.h: the library's internal headers, gathered here so
+ * that the line is drawn in one place. Not installed and not stable: a program outside this
+ * repository uses hdnet.h only. (Building against it needs -Isrc as well as -Iinclude.) */
+#ifndef HDNET_TOOL_H
+#define HDNET_TOOL_H
+
+#include "hdnet.h"
+#include "core/core.h"             /* errors, memory, atomic files, paths, time, threads */
+#include "io/dataset.h"            /* SPEC section 5 folders */
+#include "mesh/mesh.h"             /* the canonical mesh */
+#include "nn/nn.h"                 /* layers, for the benchmarks */
+#include "model/unet.h"            /* Common-Net, for the benchmarks */
+#include "model/hdnet_net.h"       /* HD-Net, for the benchmarks and `hdnet info` */
+#include "model/checkpoint.h"      /* the checkpoint format, for `hdnet init` */
+#include "model/train.h"           /* training: `hdnet train` */
+#include "align/face_detect.h"     /* the detector, for `hdnet detect` */
+#include "align/face_landmarks.h"  /* the face mesh, for `hdnet detect` */
+
+#endif /* HDNET_TOOL_H */
