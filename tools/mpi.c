@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include "mpi.h"
 #include "hdnet.h"
-#include "core/core.h"
+#include "hdnet_tool.h"
 #if HD_HAVE_MPI
 #include <mpi.h>
 #endif
