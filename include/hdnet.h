@@ -575,6 +575,9 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
 typedef struct hd_aligner hd_aligner;
 hd_status hd_aligner_load(hd_aligner **aligner);
 void hd_aligner_free(hd_aligner *aligner);
+/* The face detection threshold hd_aligner_run uses from now on, in (0, 1] (default 0.75, the
+ * detector's own; out of range: left as it was). */
+void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
 /* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
  * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default

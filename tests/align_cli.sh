@@ -20,7 +20,7 @@ expect_saying 0 "blended" "$HDNET" blend --source black.pfm --target black.pfm -
 
 # a folder with the bundled photo (exactly one face, five files) and a face-less photo (reported,
 # not an error for the batch)
-expect_saying 0 "1 face(s) from 2 photo(s)" "$HDNET" align batch -o aligned --size 128
+expect_saying 1 "2 photos -> aligned: 1 done (1 face), 1 without a face, 0 failed" "$HDNET" align batch -o aligned --size 128
 grep -q "batch/black.png: no face found" err.log || fail "the face-less photo was not reported: $(cat err.log)"
 for f in face0.png face0.mask.png face0.normal.png face0.landmarks.txt face0.warp.txt; do
     [ -s "aligned/astronaut/$f" ] || fail "aligned/astronaut/$f is missing"
@@ -44,7 +44,7 @@ expect_saying 2 "-o DIR is required" "$HDNET" align "$photo"
 expect_saying 2 "--size" "$HDNET" align "$photo" -o x --size 8
 expect_saying 1 "/dev/null/x" "$HDNET" align "$photo" -o /dev/null/x
 mkdir -p empty
-expect_saying 1 "no .png/.jpg/.jpeg photo" "$HDNET" align empty -o x
+expect_saying 1 "empty: no .png/.jpg/.jpeg image in the folder" "$HDNET" align empty -o x
 
 # blend: the face's own texture warped back (round trip), an offset paste, errors
 a=aligned/astronaut

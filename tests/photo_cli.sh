@@ -165,10 +165,10 @@ mkdir -p batch
 cp "$photo" batch/astronaut.png
 cp gray.png batch/gray.png
 cp two.png batch/two.png
-expect 0 "$HDNET" decompose batch $M -o dec
+expect 1 "$HDNET" decompose batch $M -o dec
 says "gray.png: no face found"
 says "1 photo without a face"
-d=dec/batch
+d=dec
 exists $d/astronaut.face0.albedo.png $d/astronaut.face0.shading.png $d/astronaut.face0.shading.pfm \
     $d/astronaut.face0.normal.png $d/astronaut.face0.light.txt $d/astronaut.face0.recon.png \
     $d/astronaut.face0.sheet.png $d/astronaut.recon.png $d/two.face0.albedo.png $d/two.face1.albedo.png $d/two.recon.png

@@ -51,10 +51,29 @@ typedef struct cli_cmd_spec {
 int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
                   int *exit_code);
 void cli_opts_help(const cli_cmd_spec *spec, FILE *out);
+/* An option's value placeholder ("N", "OUT.png"; "" for a flag) and its help-line synopsis
+ * ("-o, --output OUT.png"). */
+const char *cli_opt_metavar(const cli_opt *o);
+void cli_opt_synopsis(const cli_opt *o, char *left, size_t size);
 /* Prints "hdnet CMD: usage error: ..." and a hint to --help; returns CLI_EXIT_USAGE. */
 int cli_usage_error(const cli_cmd_spec *spec, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* Prints "hdnet CMD: " + hd_error(); returns CLI_EXIT_FAIL. */
 int cli_report(const char *cmd);
+
+/* The options every command spells the same way (docs/usage.md, "Options every command shares"):
+ * -o output, -m model, -q quiet, -j/--threads, --min-score (every command that uses the face
+ * detector), --json (print the result as JSON on stdout). */
+#define CLI_OPT_THREADS_ROW(var) {"threads", 'j', CLI_OPT_INT, &(var), "N", "threads for the computation (default 0: all cores)"}
+#define CLI_OPT_QUIET_ROW(var) {"quiet", 'q', CLI_OPT_FLAG, &(var), NULL, "print only problems (and what --json asks for)"}
+#define CLI_OPT_MIN_SCORE_ROW(var) {"min-score", 0, CLI_OPT_FLOAT, &(var), "S", cli_min_score_help()}
+#define CLI_OPT_JSON_ROW(var) {"json", 0, CLI_OPT_FLAG, &(var), NULL, "print the result as one JSON object on stdout (fields: docs/usage.md)"}
+/* "face detection threshold in (0, 1] (default 0.75)", with the library's default. */
+const char *cli_min_score_help(void);
+/* The face detector's default threshold, for a command's min-score variable. */
+float cli_min_score_default(void);
+/* Checks --threads (>= 0) and --min-score (in (0, 1]) and applies --threads (hd_set_threads);
+ * returns 0, or the usage error's exit code. Pass min_score 1 for a command without it. */
+int cli_opts_common(const cli_cmd_spec *spec, int threads, float min_score);
 
 /* What the commands that apply a model to a photo or an aligned face share: their option rows, */
 #define CLI_OPT_MODEL_ROW(var) {"model", 'm', CLI_OPT_STRING, &(var), "MODEL", "model file (default: the shipped hdnet-synth model)"}

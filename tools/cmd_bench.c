@@ -178,7 +178,7 @@ int cmd_bench(int argc, char **argv)
     const cli_opt opts[] = {
         {"size", 0, CLI_OPT_INT, &a.size, "S", "image side, a multiple of 32 (default 256)"},
         {"batch", 0, CLI_OPT_INT, &a.batch, "B", "images per forward (default 1)"},
-        {"threads", 0, CLI_OPT_INT, &a.threads, "T", "OpenMP and OpenBLAS threads (default 2)"},
+        {"threads", 'j', CLI_OPT_INT, &a.threads, "T", "OpenMP and OpenBLAS threads (default 2)"},
         {"width", 0, CLI_OPT_INT, &a.width, "W", "Common-Net width (default 48, the paper's)"},
         {"repeats", 0, CLI_OPT_INT, &a.repeats, "R", "timed runs per figure after one warm-up; the best counts (default 5)"},
         {"json", 0, CLI_OPT_FLAG, &a.json, NULL, "print one JSON object instead of tables"},

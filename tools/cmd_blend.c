@@ -14,22 +14,23 @@ int cmd_blend(int argc, char **argv)
                *original_path = NULL;
     cli_opt_floats offset = {0, 2, {0}};
     float tolerance = (float)HD_POISSON_TOLERANCE;
-    int quiet = 0;
+    int quiet = 0, threads = 0;
     const cli_opt opts[] = {
-        {"source", 's', CLI_OPT_STRING, &source_path, "S.png", "the image to blend in (required)"},
-        {"target", 't', CLI_OPT_STRING, &target_path, "T.png", "the photo to blend into (required)"},
-        {"mask", 'm', CLI_OPT_STRING, &mask_path, "M.png",
+        {"source", 0, CLI_OPT_STRING, &source_path, "S.png", "the image to blend in (required)"},
+        {"target", 0, CLI_OPT_STRING, &target_path, "T.png", "the photo to blend into (required)"},
+        {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png",
          "where the source counts (> 0.5; source-sized; default: all of it, with --warp the mesh's UV layout; "
          "give the face's .mask.png)"},
         {"offset", 0, CLI_OPT_FLOATS, &offset, "X,Y", "target pixel of the source's top-left pixel (default 0,0)"},
-        {"warp", 'w', CLI_OPT_STRING, &warp_path, "W.warp.txt",
+        {"warp", 0, CLI_OPT_STRING, &warp_path, "W.warp.txt",
          "the source is an aligned texture of this face (from `hdnet align`): warp it back into the target first"},
         {"original", 0, CLI_OPT_STRING, &original_path, "FACE.png",
          "with --warp: the face's own unwarped texture (face<k>.png); only the change source - original is put "
          "into the photo, which keeps the photo's full-resolution detail"},
         {"tolerance", 0, CLI_OPT_FLOAT, &tolerance, "X", "relative residual the solver must reach (default 1e-4)"},
         {"output", 'o', CLI_OPT_STRING, &out_path, "OUT.png", "where to write the result, 8-bit PNG (required)"},
-        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "do not print the solver's figures"},
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
         {0},
     };
     cli_cmd_spec spec = {
@@ -47,6 +48,7 @@ int cmd_blend(int argc, char **argv)
     int np, code;
     if (cli_opts_parse(&spec, argc, argv, &pos, &np, &code)) return code;
     free(pos);
+    if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     if (!source_path) return cli_usage_error(&spec, "--source is required");
     if (!target_path) return cli_usage_error(&spec, "--target is required");
     if (!out_path) return cli_usage_error(&spec, "-o OUT.png is required");

@@ -8,6 +8,7 @@
  * end if any failed. */
 #include <stdlib.h>
 #include <string.h>
+#include "batch.h"
 #include "cli.h"
 #include "hdnet_tool.h"
 
@@ -66,34 +67,15 @@ static void job_list_free(job_list *jobs)
     free(jobs->v);
 }
 
-static void warn_line(const char *message) { fprintf(stderr, "hdnet decompose: %s\n", message); }
-
-/* Adds the images of one command-line input: a file goes to out/NAME.*, a SPEC section 5 folder
- * to out/SUBJECT/NAME.* (a folder of images without subject folders is one subject named after
- * the folder, as hd_dataset_scan has it). */
-static hd_status add_input(job_list *jobs, const char *input, const char *out)
+/* The job of one input: OUT/REL.* goes to out_dir = OUT/dirname(REL), name = basename(REL). */
+static hd_status add_input(job_list *jobs, const cli_input *in, const char *out)
 {
-    if (hd_is_dir(input)) {
-        char *dir = dup_str(input);
-        if (!dir) return hd_fail(HD_ERR_NOMEM, "out of memory");
-        for (size_t n = strlen(dir); n > 1 && dir[n - 1] == '/'; n--) dir[n - 1] = '\0';
-        hd_dataset ds;
-        hd_status st = hd_dataset_scan(dir, &ds, warn_line);
-        free(dir);
-        if (st != HD_OK) return st;
-        for (int i = 0; i < ds.count && st == HD_OK; i++) {
-            char *sub = hd_path_join(out, ds.samples[i].subject);
-            if (!sub || !job_add(jobs, ds.samples[i].image, sub, ds.samples[i].name))
-                st = hd_fail(HD_ERR_NOMEM, "out of memory listing %s", input);
-            free(sub);
-        }
-        hd_dataset_free(&ds);
-        return st;
-    }
-    char *name = hd_path_stem(input);
-    if (!name) return HD_ERR_NOMEM;
-    int ok = job_add(jobs, input, out, name);
-    free(name);
+    char *stem = cli_output_path(out, in, "");
+    if (!stem) return HD_ERR_NOMEM;
+    char *slash = strrchr(stem, '/');
+    *slash = '\0';
+    int ok = job_add(jobs, in->path, stem, slash + 1);
+    free(stem);
     return ok ? HD_OK : hd_fail(HD_ERR_NOMEM, "out of memory");
 }
 
@@ -219,90 +201,104 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
 int cmd_decompose(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
-    int batch = 4, aligned = 0;
+    int batch = 4, aligned = 0, threads = 0, quiet = 0, json = 0;
+    float min_score = cli_min_score_default();
     const cli_opt opts[] = {
         CLI_OPT_MODEL_ROW(model_path),
-        {"output", 'o', CLI_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their subject folders)"},
-        {"batch", 0, CLI_OPT_INT, &batch, "N", "images per forward pass (default 4)"},
+        {"output", 'o', CLI_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their layout below it)"},
+        {"batch", 0, CLI_OPT_INT, &batch, "N", "aligned textures per forward pass (default 4)"},
         {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png",
          "face mask for aligned textures without a NAME.mask.png beside them (default: all ones)"},
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "the inputs are aligned face textures, not photos (automatic for an image with NAME.mask.png or "
          "NAME.normal.png beside it)"},
+        CLI_OPT_MIN_SCORE_ROW(min_score),
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
+        {"json", 0, CLI_OPT_FLAG, &json, NULL, "print the summary (and every input's outcome) as JSON on stdout"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "decompose", "IMG|DIR ... [-m MODEL] -o DIR [--batch N] [--aligned [--mask M.png]]",
+        "decompose", "IMG|DIR|@LIST ... [-m MODEL] -o DIR [--batch N] [--aligned [--mask M.png]] [--json]",
         "Decomposes the faces of photos, or aligned face textures (docs/spec.md section 2: --aligned, or an image\n"
         "with NAME.mask.png or NAME.normal.png beside it), into intrinsic components. For each texture\n"
         "NAME it writes, at the model's size: NAME.albedo.png (8 bit), NAME.shading.png (16 bit,\n"
         "storing shading / 2), NAME.shading.pfm (exact), NAME.normal.png (16 bit, (n + 1) / 2, 0\n"
         "outside the mask), NAME.light.txt, NAME.recon.png (albedo x shading) and NAME.sheet.png\n"
-        "(input | albedo | shading | normal | reconstruction). A folder input (docs/spec.md section 5) keeps\n"
-        "its subject folders: DIR/SUBJECT/NAME.*. A photo NAME is aligned first: face k gets the same\n"
-        "files as NAME.face<k>.*, and NAME.recon.png is the photo with each face's reconstruction warped\n"
-        "back and Poisson-blended in. An unreadable image, or a photo without a face, is reported and\n"
-        "skipped; the exit status is then 1, after every other image is written.",
+        "(input | albedo | shading | normal | reconstruction). A folder input is walked recursively and\n"
+        "keeps its layout: DIR/SUB/NAME.png gives OUT/SUB/NAME.* (a docs/spec.md section 5 set: OUT/SUBJECT/NAME.*,\n"
+        "what `hdnet eval --pred` reads); @LIST is a file of paths. A photo NAME is aligned first: face k\n"
+        "gets the same files as NAME.face<k>.*, and NAME.recon.png is the photo with each face's\n"
+        "reconstruction warped back and Poisson-blended in. An unreadable image, or a photo without a face,\n"
+        "is reported and skipped; the exit status is then 1, after every other image is written.",
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    if (!out) {
+    if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
+        ((batch < 1 || batch > 256) && (code = cli_usage_error(&spec, "--batch wants 1..256, got %d", batch)))) {
         free(pos);
-        return cli_usage_error(&spec, "-o is required");
+        return code;
     }
-    if (batch < 1 || batch > 256) {
-        free(pos);
-        return cli_usage_error(&spec, "--batch wants 1..256, got %d", batch);
-    }
-
     hd_set_durable_writes(0); /* bulk pictures: atomic (renamed into place) but not fsynced */
     job_list jobs = {0};
+    cli_inputs in = {0};
     hd_model *model = NULL;
-    int failed = 0, written = 0, rc = CLI_EXIT_OK;
-    for (int i = 0; i < npos; i++)
-        if (add_input(&jobs, pos[i], out) != HD_OK) {
-            cli_report("decompose");
-            failed++;
-        }
+    hd_aligner *aligner = NULL;
+    cJSON *results = json ? cJSON_CreateArray() : NULL;
+    int failed = 0, written = 0, textures = 0, no_face = 0, faces = 0, rc = CLI_EXIT_OK, inputs = 0;
+    hd_status st = cli_inputs_collect(&in, pos, npos);
+    for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], out);
     free(pos);
-    if (jobs.count == 0) {
-        rc = CLI_EXIT_FAIL;
-        goto done;
-    }
-    if (hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
+    if (st != HD_OK || jobs.count == 0 || hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
         rc = cli_report("decompose");
         goto done;
     }
+    inputs = jobs.count;
+    const double t0 = hd_seconds();
+    cli_progress progress;
+    const int show = !quiet && !json && jobs.count > 1;
+    if (show) cli_progress_start(&progress, "decompose", jobs.count);
     /* photos one at a time (each aligned first); the aligned textures below in batches */
-    int textures = 0, no_face = 0;
-    hd_aligner *aligner = NULL;
     for (int i = 0; i < jobs.count; i++) {
         if (aligned || hd_input_kind_of(jobs.v[i].image) == HD_INPUT_TEXTURE) {
             jobs.v[textures++] = jobs.v[i]; /* keep the textures, in order, at the front */
             continue;
         }
         int nfaces = 0;
-        hd_status st = aligner ? HD_OK : hd_aligner_load(&aligner);
+        st = aligner ? HD_OK : hd_aligner_load(&aligner);
+        if (st == HD_OK) hd_aligner_set_min_score(aligner, min_score);
         if (st == HD_OK) st = hd_mkdirs(jobs.v[i].out_dir);
         if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces);
-        if (st == HD_ERR_NOTFOUND) { /* reported, skipped, not a failure of the batch */
-            cli_report("decompose");
-            no_face++;
-        } else if (st != HD_OK) {
-            cli_report("decompose");
-            failed++;
+        if (st != HD_OK) {
+            cli_report("decompose"); /* the reason names the photo */
+            if (st == HD_ERR_NOTFOUND) no_face++;
+            else failed++;
         } else {
-            printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces, nfaces == 1 ? "" : "s",
-                   jobs.v[i].out_dir, jobs.v[i].name, jobs.v[i].out_dir, jobs.v[i].name);
-            written += nfaces;
+            if (!quiet && !json)
+                printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces,
+                       nfaces == 1 ? "" : "s", jobs.v[i].out_dir, jobs.v[i].name, jobs.v[i].out_dir, jobs.v[i].name);
+            written++;
+            faces += nfaces;
+        }
+        if (results) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "file", jobs.v[i].image);
+            cJSON_AddStringToObject(o, "kind", "photo");
+            cJSON_AddStringToObject(o, "status", st == HD_OK ? "done" : st == HD_ERR_NOTFOUND ? "no_face" : "failed");
+            cJSON_AddNumberToObject(o, "faces", nfaces);
+            char *stem = hd_path_join(jobs.v[i].out_dir, jobs.v[i].name);
+            if (st == HD_OK && stem) cJSON_AddStringToObject(o, "output", stem);
+            free(stem);
+            cJSON_AddItemToArray(results, o);
         }
         free(jobs.v[i].image);
         free(jobs.v[i].out_dir);
         free(jobs.v[i].name);
+        if (show) cli_progress_update(&progress, written + failed + no_face, NULL);
     }
+    const int photos_seen = jobs.count - textures;
     jobs.count = textures;
-    hd_aligner_free(aligner);
     const int size = hd_model_size(model);
     hd_image *tex = calloc((size_t)batch, sizeof *tex), *mask = calloc((size_t)batch, sizeof *mask);
     hd_decomposition *d = calloc((size_t)batch, sizeof *d);
@@ -314,12 +310,12 @@ int cmd_decompose(int argc, char **argv)
         rc = CLI_EXIT_FAIL;
         goto done;
     }
-    cli_progress progress;
-    if (jobs.count) cli_progress_start(&progress, "decompose", jobs.count);
     for (int start = 0; start < jobs.count; start += batch) {
         int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
+        const char *status[256] = {0};
         for (int i = start; i < end; i++) {
             char *source = NULL;
+            status[i - start] = "failed";
             if (hd_image_read_as(jobs.v[i].image, 3, &tex[n]) != HD_OK ||
                 hd_face_mask_read(jobs.v[i].image, mask_path, size, size, &mask[n], &source) != HD_OK) {
                 cli_report("decompose");
@@ -340,6 +336,8 @@ int cmd_decompose(int argc, char **argv)
                     failed++;
                 } else {
                     written++;
+                    faces++;
+                    status[index[k] - start] = "done";
                 }
                 hd_sheet_free(&sheets[k]);
                 hd_decomposition_free(&d[k]);
@@ -349,17 +347,43 @@ int cmd_decompose(int argc, char **argv)
             hd_image_free(&tex[k]);
             hd_image_free(&mask[k]);
         }
-        cli_progress_update(&progress, end, NULL);
+        for (int i = start; i < end && results; i++) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "file", jobs.v[i].image);
+            cJSON_AddStringToObject(o, "kind", "aligned");
+            cJSON_AddStringToObject(o, "status", status[i - start]);
+            cJSON_AddNumberToObject(o, "faces", strcmp(status[i - start], "done") == 0);
+            char *stem = hd_path_join(jobs.v[i].out_dir, jobs.v[i].name);
+            if (strcmp(status[i - start], "done") == 0 && stem) cJSON_AddStringToObject(o, "output", stem);
+            free(stem);
+            cJSON_AddItemToArray(results, o);
+        }
+        if (show) cli_progress_update(&progress, photos_seen + end, NULL);
     }
-    if (jobs.count) cli_progress_finish(&progress, jobs.count, NULL);
+    if (show) cli_progress_finish(&progress, inputs, NULL);
     free(tex), free(mask), free(d), free(sheets), free(index);
-    printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
-    if (failed) printf(" (%d failed)", failed);
-    if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
-    printf("\n");
-    if (failed || written == 0) rc = CLI_EXIT_FAIL;
+    cli_summary sum = {inputs, written, no_face, failed, faces, hd_seconds() - t0};
+    if (!quiet && !json) {
+        printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
+        if (failed) printf(" (%d failed)", failed);
+        if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
+        printf("\n");
+    }
+    rc = cli_summary_status(&sum);
+    if (json) {
+        cJSON *doc = cJSON_CreateObject();
+        if (doc) {
+            cJSON_AddItemToObject(doc, "results", results);
+            results = NULL;
+            cJSON_AddItemToObject(doc, "summary", cli_summary_json(&sum, out));
+        }
+        rc = cli_json_print("decompose", doc, rc);
+    }
 done:
+    cJSON_Delete(results);
     if (model) hd_model_free(model);
+    hd_aligner_free(aligner);
     job_list_free(&jobs);
+    cli_inputs_free(&in);
     return rc;
 }

@@ -138,14 +138,15 @@ int cmd_detect(int argc, char **argv)
 {
     const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
     float min_score = HD_FACE_MIN_SCORE, min_face = HD_FACE_MIN_SIZE;
-    int no_landmarks = 0, zoom_size = 0;
+    int no_landmarks = 0, zoom_size = 0, threads = 0;
     const cli_opt opts[] = {
         {"output", 'o', CLI_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
         {"landmarks", 0, CLI_OPT_STRING, &landmarks_path, "L.txt",
          "write the landmarks: per face a '# face' line and 468 lines 'x y z'"},
-        {"min-score", 0, CLI_OPT_FLOAT, &min_score, "S", "detection threshold in (0, 1] (default 0.75)"},
+        CLI_OPT_MIN_SCORE_ROW(min_score),
         {"min-face", 0, CLI_OPT_FLOAT, &min_face, "PX",
          "smallest face to look for, pixels wide (default 40; 0: one pass over the whole photo)"},
+        CLI_OPT_THREADS_ROW(threads),
         {"no-landmarks", 0, CLI_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
         {"draw", 0, CLI_OPT_STRING, &draw_text, "LIST",
          "what -o shows, comma-separated from box, keypoints, roi (the crop the face mesh first sees), "
@@ -171,8 +172,7 @@ int cmd_detect(int argc, char **argv)
     int draw;
     if (!parse_draw(draw_text, &draw))
         return cli_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
-    if (!(min_score > 0.0f && min_score <= 1.0f))
-        return cli_usage_error(&spec, "--min-score must be in (0, 1], got %g", (double)min_score);
+    if ((code = cli_opts_common(&spec, threads, min_score))) return code;
     if (!(min_face >= 0.0f && min_face <= (float)HD_IMAGE_MAX_SIDE))
         return cli_usage_error(&spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)min_face);
     if (zoom_size < 0 || zoom_size > 4096) return cli_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);

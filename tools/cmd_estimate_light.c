@@ -1,69 +1,154 @@
 /* cmd_estimate_light.c: `hdnet estimate-light`: the light the model estimates for a face (L-Net's 9
  * SH coefficients): the best-scoring face of a photo (aligned first) or an aligned face texture;
- * written as a light file, optionally drawn on a sphere (docs/usage.md). hd_estimate_light and
- * hd_estimate_light_photo are the cores; this file is the file handling. */
+ * written as a light file, optionally drawn on a sphere, or printed as JSON (docs/usage.md).
+ * hd_estimate_light and hd_estimate_light_photo are the cores; estimate_one is the per-photo step
+ * the batch loop (batch.c) runs over every input; the rest is file handling. */
 #include <stdlib.h>
+#include <string.h>
+#include "batch.h"
 #include "cli.h"
 
-CLI_COMMAND("estimate-light", cmd_estimate_light, "estimate the light of the face in a photo or of an aligned face (SH light file)")
+CLI_COMMAND("estimate-light", cmd_estimate_light, "estimate the light of the face in photos or of aligned faces (SH light file)")
+
+typedef struct estimate_run {
+    const char *preview;
+    int size, aligned;
+    float min_score;
+    hd_model *model;
+    hd_aligner *aligner;
+    cJSON *results; /* --json: one object per input done */
+} estimate_run;
+
+static hd_status estimate_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
+{
+    estimate_run *run = ctx;
+    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
+    hd_image tex = {0}, sphere = {0};
+    float light[HD_SH_COEFFS];
+    char *path = NULL;
+    hd_status st = hd_image_read_as(in->path, 3, &tex);
+    if (st == HD_OK && photo && !run->aligner) {
+        st = hd_aligner_load(&run->aligner);
+        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
+    }
+    r->faces = 1;
+    if (st == HD_OK)
+        st = photo ? hd_estimate_light_photo(run->model, run->aligner, &tex, light, &r->faces)
+                   : hd_estimate_light(run->model, &tex, light);
+    if (st == HD_OK && photo && r->faces > 1 && !run->results)
+        fprintf(stderr, "hdnet estimate-light: note: %s has %d faces; this is the light of face 0 (best score)\n",
+                in->path, r->faces);
+    if (st == HD_OK && out && !(path = single ? strdup(out) : cli_output_path(out, in, ".light.txt"))) st = HD_ERR_NOMEM;
+    if (st == HD_OK && path) st = hd_light_write(path, light);
+    if (st == HD_OK && run->preview) {
+        st = hd_light_sphere(light, run->size, &sphere);
+        if (st == HD_OK) st = hd_image_write_png(run->preview, &sphere, 8);
+    }
+    if (st == HD_OK) snprintf(r->wrote, sizeof r->wrote, "%s%s%s", path ? path : "stdout", run->preview ? " and " : "",
+                              run->preview ? run->preview : "");
+    if (st == HD_OK && run->results) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON *l = cJSON_CreateArray();
+        if (o && l) {
+            cJSON_AddStringToObject(o, "file", in->path);
+            cJSON_AddStringToObject(o, "kind", photo ? "photo" : "aligned");
+            cJSON_AddNumberToObject(o, "faces", photo ? r->faces : 1);
+            for (int k = 0; k < HD_SH_COEFFS; k++) cJSON_AddItemToArray(l, cJSON_CreateNumber(light[k]));
+            cJSON_AddItemToObject(o, "light", l);
+            l = NULL;
+            if (path) cJSON_AddStringToObject(o, "output", path);
+            cJSON_AddItemToArray(run->results, o);
+            o = NULL;
+        }
+        cJSON_Delete(o);
+        cJSON_Delete(l);
+    }
+    free(path);
+    hd_image_free(&sphere);
+    hd_image_free(&tex);
+    return st;
+}
 
 int cmd_estimate_light(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *preview = NULL;
-    int size = 256, aligned = 0;
+    int size = 256, aligned = 0, threads = 0, quiet = 0, json = 0;
+    float min_score = cli_min_score_default();
     const cli_opt opts[] = {
         CLI_OPT_MODEL_ROW(model_path),
-        {"output", 'o', CLI_OPT_STRING, &out, "L.txt", "the light file (9 numbers, DPR order)"},
-        {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
+        {"output", 'o', CLI_OPT_STRING, &out, "OUT",
+         "one input: the light file (9 numbers, DPR order); many inputs or a folder: the output folder "
+         "(OUT/NAME.light.txt); optional with --json"},
+        {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere (one input only)"},
         {"size", 0, CLI_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
         CLI_OPT_ALIGNED_ROW(aligned),
+        CLI_OPT_MIN_SCORE_ROW(min_score),
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
+        CLI_OPT_JSON_ROW(json),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "estimate-light", "IMG [-m MODEL] -o L.txt [--preview SPHERE.png] [--aligned]",
+        "estimate-light", "IMG|DIR|@LIST ... [-m MODEL] (-o OUT | --json) [--preview SPHERE.png] [--aligned]",
         "Writes the light the model estimates for the face in a photo (the best-scoring face, aligned\n"
         "first) or, with --aligned, for an aligned face texture (docs/spec.md section 2): 9 spherical-harmonics\n"
-        "coefficients in DPR's order and scale, loadable by `hdnet relight --light`.",
-        opts, 1, 1};
+        "coefficients in DPR's order and scale, loadable by `hdnet relight --light`. Many inputs (files,\n"
+        "folders walked recursively, @LIST files of paths) share one model load and write\n"
+        "OUT/REL/NAME.light.txt; a photo that cannot be read or has no face is reported and skipped, and\n"
+        "the exit status is then 1. --json prints every light and the summary on stdout.",
+        opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    const char *image_path = pos[0];
-    free(pos);
-    if (!out) return cli_usage_error(&spec, "-o is required");
-    if (size < 8 || size > 4096) return cli_usage_error(&spec, "--size wants 8..4096, got %d", size);
-
-    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
-    hd_model *model = NULL;
-    hd_aligner *aligner = NULL;
-    hd_image tex = {0}, sphere = {0};
-    float light[HD_SH_COEFFS];
-    int rc = CLI_EXIT_FAIL, nfaces = 1;
-    if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
-        (photo && hd_aligner_load(&aligner) != HD_OK)) {
+    cli_inputs in = {0};
+    estimate_run run = {preview, size, aligned, min_score, NULL, NULL, NULL};
+    int rc = CLI_EXIT_USAGE;
+    if ((code = cli_opts_common(&spec, threads, min_score))) goto done;
+    if (!out && !json) {
+        cli_usage_error(&spec, "-o is required (or --json)");
+        goto done;
+    }
+    if (size < 8 || size > 4096) {
+        cli_usage_error(&spec, "--size wants 8..4096, got %d", size);
+        goto done;
+    }
+    int single = 0;
+    if ((code = cli_output_mode(&spec, pos, npos, out, NULL, &single))) goto done;
+    rc = CLI_EXIT_FAIL;
+    if (cli_inputs_collect(&in, pos, npos) != HD_OK) {
         rc = cli_report("estimate-light");
         goto done;
     }
-    hd_status st = photo ? hd_estimate_light_photo(model, aligner, &tex, light, &nfaces)
-                         : hd_estimate_light(model, &tex, light);
-    if (st != HD_OK) {
-        if (photo) cli_report_photo("estimate-light", st, image_path);
-        else cli_report("estimate-light");
+    if (preview && in.count != 1) {
+        rc = cli_usage_error(&spec, "--preview goes with one input (%d given)", in.count);
         goto done;
     }
-    if (nfaces > 1)
-        fprintf(stderr, "hdnet estimate-light: note: %s has %d faces; this is the light of face 0 (best score)\n",
-                image_path, nfaces);
-    if (hd_light_write(out, light) != HD_OK ||
-        (preview && (hd_light_sphere(light, size, &sphere) != HD_OK || hd_image_write_png(preview, &sphere, 8) != HD_OK))) {
+    if (json && !(run.results = cJSON_CreateArray())) {
+        fprintf(stderr, "hdnet estimate-light: out of memory\n");
+        goto done;
+    }
+    if (hd_model_load(model_path, &run.model) != HD_OK) {
         rc = cli_report("estimate-light");
         goto done;
     }
-    rc = CLI_EXIT_OK;
+    cli_summary sum;
+    rc = cli_batch_run("estimate-light", "estimated the light of", &in, out, single, quiet || json, estimate_one, &run,
+                       &sum);
+    if (json) {
+        cJSON *doc = cJSON_CreateObject();
+        if (doc) {
+            cJSON_AddItemToObject(doc, "results", run.results);
+            run.results = NULL;
+            cJSON_AddItemToObject(doc, "summary", cli_summary_json(&sum, out));
+        }
+        rc = cli_json_print("estimate-light", doc, rc);
+    }
 done:
-    hd_image_free(&sphere);
-    hd_image_free(&tex);
-    if (model) hd_model_free(model);
-    hd_aligner_free(aligner);
+    if (code) rc = code;
+    cJSON_Delete(run.results);
+    if (run.model) hd_model_free(run.model);
+    hd_aligner_free(run.aligner);
+    cli_inputs_free(&in);
+    free(pos);
     return rc;
 }

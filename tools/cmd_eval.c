@@ -44,40 +44,43 @@ static void print_table(const hd_eval_report *r)
 int cmd_eval(int argc, char **argv)
 {
     const char *model_path = NULL, *pred = NULL, *json = NULL;
-    int threads = 0;
+    int threads = 0, quiet = 0;
     const cli_opt opts[] = {
-        {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL", "score this model (safetensors) on the set's images"},
+        {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
+         "score this model (safetensors) on the set's images (default: the shipped hdnet-synth model)"},
         {"pred", 0, CLI_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
         {"json", 0, CLI_OPT_STRING, &json, "OUT", "also write the table as JSON to OUT"},
-        {"threads", 't', CLI_OPT_INT, &threads, "N", "OpenMP threads for the model (default: all)"},
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "eval", "DATA (-m MODEL | --pred DIR) [--json OUT]",
+        "eval", "DATA [-m MODEL | --pred DIR] [--json OUT]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
-        "%% under 20/25/30 degrees), albedo MAE/RMSE, reconstruction MAE/RMSE (A*S against the input),\n"
+        "% under 20/25/30 degrees), albedo MAE/RMSE, reconstruction MAE/RMSE (A*S against the input),\n"
         "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights).\n"
         "Baselines under it: the coarse normals (NAME.normal.png); the least-squares light of the true\n"
-        "shading on the coarse normals; the per-image mean colour as albedo.",
+        "shading on the coarse normals; the per-image mean colour as albedo. Without -m or --pred the\n"
+        "shipped model is scored.",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *data = pos[0];
     free(pos);
-    if ((model_path == NULL) == (pred == NULL)) return cli_usage_error(&spec, "give exactly one of -m MODEL and --pred DIR");
-    if (threads < 0) return cli_usage_error(&spec, "--threads %d must be >= 0", threads);
-    if (threads > 0) hd_set_threads(threads);
+    if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
+    if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     hd_model *model = NULL;
-    if (model_path && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
+    if (!pred && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
     hd_eval_report rep;
     hd_status st = hd_eval_run(data, pred, model, &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
-    snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", model_path ? "hdnet model" : "predictions");
-    print_table(&rep);
+    snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", pred ? "predictions" : "hdnet model");
+    if (!quiet) print_table(&rep);
     if (json && hd_eval_report_write_json(json, &rep) != HD_OK) return cli_report("eval");
+    if (json && !quiet) printf("wrote %s\n", json);
     return CLI_EXIT_OK;
 }

@@ -34,6 +34,7 @@ int cmd_fit_light(int argc, char **argv)
 {
     const char *normal_path = NULL, *shading_path = NULL, *image_path = NULL, *albedo_path = NULL;
     const char *mask_path = NULL, *out = NULL;
+    int quiet = 0;
     const cli_opt opts[] = {
         {"normal", 0, CLI_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
         {"shading", 0, CLI_OPT_STRING, &shading_path, "S",
@@ -42,6 +43,7 @@ int cmd_fit_light(int argc, char **argv)
         {"albedo", 0, CLI_OPT_STRING, &albedo_path, "A", "the image's albedo (channels with A <= 0.02 are left out)"},
         {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png", "per-pixel weight of the fit in [0, 1] (default 1)"},
         {"output", 'o', CLI_OPT_STRING, &out, "L.txt", "the light file written"},
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -131,9 +133,11 @@ int cmd_fit_light(int argc, char **argv)
         double r = hd_sh_shade(light, n) - shading.data[p];
         sq += weight.data[p] * r * r;
     }
-    printf("light:");
-    for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6f", (double)light[k]);
-    printf("\npixels: %ld  rms residual: %.6f\n", used, sqrt(sq / wsum));
+    if (!quiet) {
+        printf("light:");
+        for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6f", (double)light[k]);
+        printf("\npixels: %ld  rms residual: %.6f\nwrote %s\n", used, sqrt(sq / wsum), out);
+    }
     rc = CLI_EXIT_OK;
 done:
     hd_image_free(&normal_rgb);

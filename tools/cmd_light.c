@@ -46,7 +46,7 @@ static int write_presets(int size, const char *path)
 int cmd_light(int argc, char **argv)
 {
     cli_opt_floats dir = {.max = 2};
-    int preset = INT_MIN, size = 256, presets = 0;
+    int preset = INT_MIN, size = 256, presets = 0, quiet = 0;
     float intensity = NAN, ambient = NAN;
     const char *show = NULL, *out = NULL, *preview = NULL;
     static char intensity_help[96], ambient_help[96];
@@ -65,6 +65,7 @@ int cmd_light(int argc, char **argv)
         {"output", 'o', CLI_OPT_STRING, &out, "FILE", "the light file written (with --show, --presets: the PNG)"},
         {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere"},
         {"size", 0, CLI_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -89,12 +90,18 @@ int cmd_light(int argc, char **argv)
         return cli_usage_error(&spec, "--intensity and --ambient go with --dir");
     if ((show || presets) && preview)
         return cli_usage_error(&spec, "--preview goes with --dir or --preset (--show and --presets write -o)");
-    if (presets) return write_presets(size, out);
+    if (presets) {
+        int rc = write_presets(size, out);
+        if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", out);
+        return rc;
+    }
 
     float light[HD_SH_COEFFS];
     if (show) {
         if (hd_light_read(show, light) != HD_OK) return cli_report("light");
-        return write_sphere(light, size, out);
+        int rc = write_sphere(light, size, out);
+        if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", out);
+        return rc;
     }
     if (dir.count > 0) {
         if (dir.count != 2) return cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
@@ -111,6 +118,11 @@ int cmd_light(int argc, char **argv)
         if (hd_light_preset(preset, light) != HD_OK) return cli_report("light");
     }
     if (hd_light_write(out, light) != HD_OK) return cli_report("light");
-    if (preview) return write_sphere(light, size, preview);
+    if (!quiet) printf("wrote %s\n", out);
+    if (preview) {
+        int rc = write_sphere(light, size, preview);
+        if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", preview);
+        return rc;
+    }
     return CLI_EXIT_OK;
 }

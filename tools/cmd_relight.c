@@ -2,11 +2,13 @@
  * light (a light file, a built-in preset, all seven presets, or a direction), by the paper's rule
  * relit = (I / S) x s(N, l) (docs/usage.md). relight_texture is the texture-in, texture-out core;
  * hd_relight_photo wraps the same steps for photos (align, relight each face, warp back, Poisson
- * blend); everything else here is file handling. */
+ * blend); relight_one is the per-photo step the batch loop (batch.c) runs over every input;
+ * everything else here is file handling. */
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include "batch.h"
 #include "cli.h"
 #include "hdnet_tool.h"
 #include "video_cli.h"
@@ -50,13 +52,80 @@ static hd_status write_sheet(const char *path, const hd_image *input, const hd_i
     return st;
 }
 
+/* What every photo of one run shares: the lights, the model and aligner (loaded once). */
+typedef struct relight_run {
+    const float (*lights)[HD_SH_COEFFS];
+    int count, all, aligned, noted;
+    hd_brightness brightness;
+    const char *mask_path, *sheet_path;
+    float min_score;
+    hd_model *model;
+    hd_aligner *aligner;
+} relight_run;
+
+/* Writes relit image i of input `in`: the file -o names (one input), OUT/REL.relit.png, or with
+ * --preset all OUT/REL.preset<i>.png. */
+static hd_status write_relit(const relight_run *run, const cli_input *in, const char *out, int single, int i,
+                             const hd_image *relit, cli_result *r)
+{
+    char suffix[32];
+    if (run->all) snprintf(suffix, sizeof suffix, ".preset%d.png", i);
+    else snprintf(suffix, sizeof suffix, ".relit.png");
+    char *path = single ? strdup(out) : cli_output_path(out, in, suffix);
+    if (!path) return HD_ERR_NOMEM;
+    hd_status st = hd_image_write_picture(path, relit);
+    if (st == HD_OK) {
+        if (run->all && run->count > 1)
+            snprintf(r->wrote, sizeof r->wrote, "%s .. preset%d.png", path, run->count - 1);
+        else if (i == 0)
+            snprintf(r->wrote, sizeof r->wrote, "%s", path);
+    }
+    free(path);
+    return st;
+}
+
+static hd_status relight_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
+{
+    relight_run *run = ctx;
+    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
+    hd_image tex = {0}, mask = {0}, delit = {0};
+    hd_image relit[HD_LIGHT_PRESETS];
+    memset(relit, 0, sizeof relit);
+    char *mask_source = NULL;
+    hd_status st = hd_image_read_as(in->path, 3, &tex);
+    if (st == HD_OK && photo && !run->aligner) {
+        st = hd_aligner_load(&run->aligner);
+        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
+    }
+    if (st == HD_OK && photo && run->mask_path && !run->noted++) cli_note_mask("relight", 1, run->mask_path, NULL);
+    if (st == HD_OK && photo) {
+        st = hd_relight_photo(run->model, run->aligner, &tex, run->lights, run->count, run->brightness, relit,
+                              run->sheet_path ? &delit : NULL, &r->faces);
+    } else if (st == HD_OK) {
+        st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
+        if (st == HD_OK) cli_note_mask("relight", 0, run->mask_path, mask_source);
+        if (st == HD_OK)
+            st = relight_texture(run->model, &tex, &mask, run->lights, run->count, run->brightness, relit,
+                                 run->sheet_path ? &delit : NULL);
+        r->faces = 1;
+    }
+    for (int i = 0; i < run->count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &relit[i], r);
+    if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &delit, relit, run->count);
+    for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_image_free(&relit[i]);
+    hd_image_free(&delit);
+    hd_image_free(&tex);
+    hd_image_free(&mask);
+    free(mask_source);
+    return st;
+}
+
 int cmd_relight(int argc, char **argv)
 {
     const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
     const char *sheet_path = NULL;
     cli_opt_floats dir = {.max = 2};
-    float intensity = NAN, ambient = NAN;
-    int keep = 0, no_keep = 0, aligned = 0;
+    float intensity = NAN, ambient = NAN, min_score = cli_min_score_default();
+    int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
     hd_cli_clip clip = {0};
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
@@ -72,53 +141,77 @@ int cmd_relight(int argc, char **argv)
          "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
         {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
         {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
-        {"output", 'o', CLI_OPT_STRING, &out, "OUT", "relit image (8-bit PNG, or .pfm float32); with --preset all a folder"},
+        {"output", 'o', CLI_OPT_STRING, &out, "OUT",
+         "one input: the relit image (8-bit PNG, or .pfm float32); many inputs, a folder or --preset all: "
+         "the output folder (OUT/NAME.relit.png, OUT/NAME.preset<K>.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         {"keep-brightness", 0, CLI_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, CLI_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
-        {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png", "also write a contact sheet: input | delit | relit ..."},
+        {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png",
+         "also write a contact sheet: input | delit | relit ... (one input only)"},
         CLI_OPT_ALIGNED_ROW(aligned),
         HD_OPT_CLIP_ROWS(clip),
+        CLI_OPT_MIN_SCORE_ROW(min_score),
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
         "relight",
-        "IMG [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) -o OUT "
-        "[--aligned]",
+        "IMG|DIR|@LIST ... [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) "
+        "-o OUT [--aligned]",
         "Relights every face of a photo: each face is found, unwarped into the aligned texture space,\n"
         "relit there (the final albedo I / S, S the predicted shading, times the shading of the target\n"
         "light on the predicted normals), warped back and Poisson-blended into the photo, so everything\n"
         "outside the faces stays as it was. With --aligned (or a NAME.mask.png / NAME.normal.png beside\n"
         "IMG) IMG is an aligned face texture (docs/spec.md section 2), relit directly; masked-out pixels keep the\n"
-        "input. With --preset all, OUT is a folder that receives NAME.preset0.png .. NAME.preset6.png.\n"
-        "The output has the input's size; an OUT ending in .pfm is written as exact float32 PFM.",
-        opts, 1, 1};
+        "input. The output has the input's size; an OUT ending in .pfm is written as exact float32 PFM.\n"
+        "Many inputs (files, folders walked recursively, @LIST files of paths) share one model load: OUT\n"
+        "is then a folder receiving OUT/REL/NAME.relit.png (REL the path below a folder given), and with\n"
+        "--preset all (always a folder) OUT/REL/NAME.preset0.png .. preset6.png. A photo that cannot be\n"
+        "read or has no face is reported and skipped; the exit status is 1 if any was.",
+        opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    const char *image_path = pos[0];
-    free(pos);
+    cli_inputs in = {0};
+    relight_run run = {0};
+    float lights[HD_LIGHT_PRESETS][HD_SH_COEFFS];
+    int rc = CLI_EXIT_USAGE;
 
     const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0);
-    if (modes != 1) return cli_usage_error(&spec, "give exactly one of --light, --preset and --dir");
-    if (dir.count == 1) return cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
-    if ((!isnan(intensity) || !isnan(ambient)) && dir.count == 0)
-        return cli_usage_error(&spec, "--intensity and --ambient go with --dir");
-    if (!out) return cli_usage_error(&spec, "-o is required");
-    if (keep && no_keep) return cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
-    const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
-
-    float lights[HD_LIGHT_PRESETS][HD_SH_COEFFS];
-    int count = 1, all = 0;
+    if ((code = cli_opts_common(&spec, threads, min_score))) goto done;
+    if (modes != 1) {
+        cli_usage_error(&spec, "give exactly one of --light, --preset and --dir");
+        goto done;
+    }
+    if (dir.count == 1) {
+        cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
+        goto done;
+    }
+    if ((!isnan(intensity) || !isnan(ambient)) && dir.count == 0) {
+        cli_usage_error(&spec, "--intensity and --ambient go with --dir");
+        goto done;
+    }
+    if (!out) {
+        cli_usage_error(&spec, "-o is required");
+        goto done;
+    }
+    if (keep && no_keep) {
+        cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
+        goto done;
+    }
+    run.count = 1;
     if (preset) {
         char *end = NULL;
         long k = strtol(preset, &end, 10);
         if (strcmp(preset, "all") == 0) {
-            all = 1;
-            count = HD_LIGHT_PRESETS;
+            run.all = 1;
+            run.count = HD_LIGHT_PRESETS;
             for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, lights[i]);
         } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
-            return cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
+            cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
+            goto done;
         } else {
             hd_light_preset((int)k, lights[0]);
         }
@@ -126,84 +219,42 @@ int cmd_relight(int argc, char **argv)
         hd_light_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
                                 isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient, lights[0]);
     } else if (hd_light_read(light_path, lights[0]) != HD_OK) {
-        return cli_report("relight");
-    }
-    if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
-        return all || sheet_path ? cli_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)")
-                                 : hd_cli_video("relight", image_path, out, model_path, lights[0], NULL, brightness, &clip);
-
-    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
-    hd_model *model = NULL;
-    hd_aligner *aligner = NULL;
-    hd_image tex = {0}, mask = {0}, delit = {0};
-    hd_image relit[HD_LIGHT_PRESETS];
-    memset(relit, 0, sizeof relit);
-    char *mask_source = NULL, *stem = NULL;
-    int rc = CLI_EXIT_FAIL;
-    if (photo) {
-        int nfaces = 0;
-        if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_model_load(model_path, &model) != HD_OK ||
-            hd_aligner_load(&aligner) != HD_OK) {
-            rc = cli_report("relight");
-            goto done;
-        }
-        cli_note_mask("relight", 1, mask_path, NULL);
-        hd_status st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])lights, count, brightness,
-                                        relit, sheet_path ? &delit : NULL, &nfaces);
-        if (st != HD_OK) {
-            cli_report_photo("relight", st, image_path);
-            goto done;
-        }
-        printf("%s: relit %d face%s\n", image_path, nfaces, nfaces == 1 ? "" : "s");
-    } else {
-        if (hd_image_read_as(image_path, 3, &tex) != HD_OK ||
-            hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK ||
-            hd_model_load(model_path, &model) != HD_OK) {
-            rc = cli_report("relight");
-            goto done;
-        }
-        cli_note_mask("relight", 0, mask_path, mask_source);
-        if (relight_texture(model, &tex, &mask, (const float (*)[HD_SH_COEFFS])lights, count, brightness, relit,
-                            sheet_path ? &delit : NULL) != HD_OK) {
-            rc = cli_report("relight");
-            goto done;
-        }
-    }
-    if (all) {
-        stem = hd_path_stem(image_path);
-        if (!stem || hd_mkdirs(out) != HD_OK) {
-            rc = cli_report("relight");
-            goto done;
-        }
-        for (int i = 0; i < count; i++) {
-            char file[4096];
-            if (snprintf(file, sizeof file, "%s/%s.preset%d.png", out, stem, i) >= (int)sizeof file) {
-                fprintf(stderr, "hdnet relight: %s: output path too long\n", out);
-                goto done;
-            }
-            if (hd_image_write_picture(file, &relit[i]) != HD_OK) {
-                rc = cli_report("relight");
-                goto done;
-            }
-        }
-        printf("%s/%s.preset0.png .. preset%d.png\n", out, stem, count - 1);
-    } else if (hd_image_write_picture(out, &relit[0]) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
-    if (sheet_path && write_sheet(sheet_path, &tex, &delit, relit, count) != HD_OK) {
+    if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        if (run.all || sheet_path) cli_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)");
+        else rc = hd_cli_video("relight", pos[0], out, model_path, lights[0], NULL,
+                               no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
+        goto done;
+    }
+    int single = 0;
+    if ((code = cli_output_mode(&spec, pos, npos, out, run.all ? "--preset all writes seven images into a folder" : NULL, &single))) goto done;
+    if (cli_inputs_collect(&in, pos, npos) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
-    rc = CLI_EXIT_OK;
+    if (sheet_path && in.count != 1) {
+        cli_usage_error(&spec, "--sheet goes with one input (%d given)", in.count);
+        goto done;
+    }
+    rc = CLI_EXIT_FAIL;
+    run.lights = (const float (*)[HD_SH_COEFFS])lights;
+    run.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    run.aligned = aligned;
+    run.mask_path = mask_path;
+    run.sheet_path = sheet_path;
+    run.min_score = min_score;
+    if (hd_model_load(model_path, &run.model) != HD_OK) {
+        rc = cli_report("relight");
+        goto done;
+    }
+    rc = cli_batch_run("relight", "relit", &in, out, single, quiet, relight_one, &run, NULL);
 done:
-    for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_image_free(&relit[i]);
-    hd_image_free(&delit);
-    hd_image_free(&tex);
-    hd_image_free(&mask);
-    if (model) hd_model_free(model);
-    hd_aligner_free(aligner);
-    free(mask_source);
-    free(stem);
+    if (code) rc = code;
+    if (run.model) hd_model_free(run.model);
+    hd_aligner_free(run.aligner);
+    cli_inputs_free(&in);
+    free(pos);
     return rc;
 }

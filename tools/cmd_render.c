@@ -27,6 +27,7 @@ int cmd_render(int argc, char **argv)
 {
     const char *albedo_path = NULL, *normal_path = NULL, *light_path = NULL, *mask_path = NULL;
     const char *out = NULL, *shading_path = NULL;
+    int quiet = 0;
     const cli_opt opts[] = {
         {"albedo", 0, CLI_OPT_STRING, &albedo_path, "A.png", "albedo (RGB or gray, values in [0, 1])"},
         {"normal", 0, CLI_OPT_STRING, &normal_path, "N.png", "normal map, rgb = (n + 1) / 2, camera frame; 0 = no normal"},
@@ -36,6 +37,7 @@ int cmd_render(int argc, char **argv)
         {"output", 'o', CLI_OPT_STRING, &out, "image.png", "the rendered image (8-bit PNG, or PFM if it ends in .pfm)"},
         {"shading", 0, CLI_OPT_STRING, &shading_path, "S.png",
          "also write the shading: 16-bit PNG of s/2, or exact PFM if it ends in .pfm"},
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -94,6 +96,7 @@ int cmd_render(int argc, char **argv)
         }
     }
     rc = st == HD_OK ? CLI_EXIT_OK : cli_report("render");
+    if (st == HD_OK && !quiet) printf("wrote %s%s%s\n", out, shading_path ? " and " : "", shading_path ? shading_path : "");
 done:
     hd_image_free(&albedo);
     hd_image_free(&normal_rgb);

@@ -33,17 +33,17 @@ int cmd_synth(int argc, char **argv)
         {"coarse-error", 0, CLI_OPT_FLOAT, &coarse_error, "DEG",
          "size of the coarse normals' fit error, 0..40 (default 20: about 23 degrees off; 0: exact pose)"},
         {"png", 0, CLI_OPT_STRING, &png, "fast|store",
-         "PNG compression: store (default: uncompressed, 1.6 MB an image at 256, ~110 images/s a thread)\n"
+         "PNG compression: store (default: uncompressed, 1.6 MB an image at 256, ~110 images/s a thread) "
          "or fast (zlib: half the disk, ~65 images/s a thread); the pixels are the same"},
         {"camera", 0, CLI_OPT_FLOAT, &camera, "P",
          "probability of each camera effect per image, 0..1 (default 0: none); YYYY.camera.txt lists those applied"},
         {"camera-effects", 0, CLI_OPT_STRING, &effects, "LIST",
          "comma-separated: light-colour, blur, noise, white-balance, jpeg, or all (default all)"},
-        {"threads", 't', CLI_OPT_INT, &threads, "N", "OpenMP threads (default: all); the output does not depend on it"},
+        {"threads", 'j', CLI_OPT_INT, &threads, "N", "threads (default 0: all cores); the output does not depend on it"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--camera P] [--threads N]",
+        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--camera P] [-j N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
         "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh\n"
@@ -68,10 +68,9 @@ int cmd_synth(int argc, char **argv)
         return cli_usage_error(&spec, "--coarse-error %g outside [0, %g]", coarse_error, HD_SYNTH_COARSE_ERROR_MAX);
     if (strcmp(png, "fast") != 0 && strcmp(png, "store") != 0)
         return cli_usage_error(&spec, "--png %s is neither fast nor store", png);
-    if (threads < 0) return cli_usage_error(&spec, "--threads %d must be >= 0", threads);
     if (seed < 0) return cli_usage_error(&spec, "--seed %d must be >= 0", seed);
     if ((long)subjects * per_subject > 100000000L) return cli_usage_error(&spec, "too many images (%d x %d)", subjects, per_subject);
-    if (threads > 0) hd_set_threads(threads);
+    if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     /* Thousands of pictures: each still appears whole (rename), but is not fsynced one by one. */
     hd_set_durable_writes(0);
     if (!(camera >= 0.0f && camera <= 1.0f)) return cli_usage_error(&spec, "--camera %g outside [0, 1]", camera);
@@ -94,5 +93,6 @@ int cmd_synth(int argc, char **argv)
     cli_progress_start(&p, "synth", (long)subjects * per_subject);
     if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return cli_report("synth");
     cli_progress_finish(&p, (long)subjects * per_subject, NULL);
+    printf("wrote %ld images of %d subjects into %s\n", (long)subjects * per_subject, subjects, out);
     return CLI_EXIT_OK;
 }

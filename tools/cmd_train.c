@@ -80,7 +80,7 @@ int cmd_train(int argc, char **argv)
         {"width", 0, CLI_OPT_INT, &width, "W", "Common-Net width (default 48, or the checkpoint's / --init model's)"},
         {"resume", 0, CLI_OPT_FLAG, &resume, NULL, "continue RUN/checkpoint.safetensors exactly"},
         {"time-limit", 0, CLI_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
-        {"threads", 0, CLI_OPT_INT, &threads, "T", "threads (default: all)"},
+        CLI_OPT_THREADS_ROW(threads),
         {"lr", 0, CLI_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
         {"weights", 0, CLI_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
         {"w-rec", 0, CLI_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
@@ -109,7 +109,7 @@ int cmd_train(int argc, char **argv)
         {"seed", 0, CLI_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, CLI_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
         {"dump-grads", 0, CLI_OPT_STRING, &dump, "FILE", "write the first step's batch, parameters, losses and gradients"},
-        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "no progress line"},
+        {"quiet", 'q', CLI_OPT_FLAG, &quiet, NULL, "print only problems (no progress line)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {

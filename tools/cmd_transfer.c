@@ -1,24 +1,65 @@
-/* cmd_transfer.c: `hdnet transfer`: relights the faces of a photo, or an aligned face texture, under
+/* cmd_transfer.c: `hdnet transfer`: relights the faces of photos, or aligned face textures, under
  * the light the model estimates for a reference face (a photo's best face, or an aligned texture;
  * docs/usage.md). Exactly `hdnet estimate-light REF` followed by `hdnet relight IMG --light`
  * (bit-identical); hd_estimate_light(_photo), hd_relight_face and hd_relight_photo are the cores,
- * this file is the file handling. */
+ * transfer_one the per-photo step the batch loop (batch.c) runs over every input, the rest is file
+ * handling. */
 #include <stdlib.h>
 #include <string.h>
+#include "batch.h"
 #include "cli.h"
 #include "video_cli.h"
 
-CLI_COMMAND("transfer", cmd_transfer, "relight the faces of a photo (or an aligned face) with the light of a reference face")
+CLI_COMMAND("transfer", cmd_transfer, "relight the faces of photos (or aligned faces) with the light of a reference face")
+
+typedef struct transfer_run {
+    float light[HD_SH_COEFFS];
+    hd_brightness brightness;
+    const char *mask_path;
+    int aligned;
+    hd_model *model;
+    hd_aligner *aligner;
+} transfer_run;
+
+static hd_status transfer_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
+{
+    transfer_run *run = ctx;
+    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
+    hd_image tex = {0}, mask = {0}, relit = {0};
+    char *mask_source = NULL, *path = NULL;
+    hd_status st = hd_image_read_as(in->path, 3, &tex);
+    if (st == HD_OK && photo) {
+        st = hd_relight_photo(run->model, run->aligner, &tex, (const float (*)[HD_SH_COEFFS])run->light, 1,
+                              run->brightness, &relit, NULL, &r->faces);
+    } else if (st == HD_OK) {
+        st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
+        if (st == HD_OK) cli_note_mask("transfer", 0, run->mask_path, mask_source);
+        if (st == HD_OK) st = hd_relight_face(run->model, &tex, &mask, run->light, run->brightness, &relit);
+        r->faces = 1;
+    }
+    if (st == HD_OK && !(path = single ? strdup(out) : cli_output_path(out, in, ".transfer.png"))) st = HD_ERR_NOMEM;
+    if (st == HD_OK) st = hd_image_write_picture(path, &relit);
+    if (st == HD_OK) snprintf(r->wrote, sizeof r->wrote, "%s", path);
+    free(path);
+    hd_image_free(&relit);
+    hd_image_free(&tex);
+    hd_image_free(&mask);
+    free(mask_source);
+    return st;
+}
 
 int cmd_transfer(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
-    int keep = 0, no_keep = 0, aligned = 0;
+    int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
     hd_cli_clip clip = {0};
+    float min_score = cli_min_score_default();
     const cli_opt opts[] = {
         {"ref", 0, CLI_OPT_STRING, &ref_path, "REF", "the photo (its best face) or aligned face whose light is taken"},
         CLI_OPT_MODEL_ROW(model_path),
-        {"output", 'o', CLI_OPT_STRING, &out, "OUT.png", "the relit image (8-bit PNG, or .pfm float32; the input's size)"},
+        {"output", 'o', CLI_OPT_STRING, &out, "OUT",
+         "one input: the relit image (8-bit PNG, or .pfm float32; the input's size); many inputs or a "
+         "folder: the output folder (OUT/NAME.transfer.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         {"keep-brightness", 0, CLI_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
         {"no-keep-brightness", 0, CLI_OPT_FLAG, &no_keep, NULL, "use the reference light's own level"},
@@ -26,43 +67,58 @@ int cmd_transfer(int argc, char **argv)
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
         HD_OPT_CLIP_ROWS(clip),
+        CLI_OPT_MIN_SCORE_ROW(min_score),
+        CLI_OPT_THREADS_ROW(threads),
+        CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "transfer", "IMG --ref REF [-m MODEL] -o OUT.png [--aligned]",
+        "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",
         "Estimates the light of the reference REF with the model (a photo: its best-scoring face) and\n"
         "relights IMG under it: every face of a photo (aligned, relit, warped back, Poisson-blended), or\n"
-        "an aligned face texture with --aligned (masked-out pixels keep the input).",
-        opts, 1, 1};
+        "an aligned face texture with --aligned (masked-out pixels keep the input). Many inputs (files,\n"
+        "folders walked recursively, @LIST files of paths) share one model load and the reference's\n"
+        "light, and write OUT/REL/NAME.transfer.png; a photo that cannot be read or has no face is\n"
+        "reported and skipped, and the exit status is then 1.",
+        opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    const char *image_path = pos[0];
-    free(pos);
-    if (!ref_path) return cli_usage_error(&spec, "--ref is required");
-    if (!out) return cli_usage_error(&spec, "-o is required");
-    if (keep && no_keep) return cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
-    const hd_brightness brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
-    if (hd_cli_is_clip(image_path, &clip)) /* a video, or a folder of frames with --fps */
-        return hd_cli_video("transfer", image_path, out, model_path, NULL, ref_path, brightness, &clip);
-
-    const int photo = !aligned && hd_input_kind_of(image_path) == HD_INPUT_PHOTO;
+    if ((code = cli_opts_common(&spec, threads, min_score)) || (!ref_path && (code = cli_usage_error(&spec, "--ref is required"))) ||
+        (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
+        (keep && no_keep &&
+         (code = cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other")))) {
+        free(pos);
+        return code;
+    }
+    if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        code = hd_cli_video("transfer", pos[0], out, model_path, NULL, ref_path,
+                            no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
+        free(pos);
+        return code;
+    }
+    transfer_run run = {{0}, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, mask_path, aligned, NULL, NULL};
+    int single = 0;
+    if ((code = cli_output_mode(&spec, pos, npos, out, NULL, &single))) {
+        free(pos);
+        return code;
+    }
     const int ref_photo = !aligned && hd_input_kind_of(ref_path) == HD_INPUT_PHOTO;
-    hd_model *model = NULL;
-    hd_aligner *aligner = NULL;
-    hd_image tex = {0}, ref = {0}, mask = {0}, relit = {0};
-    char *mask_source = NULL;
-    float light[HD_SH_COEFFS];
+    cli_inputs in = {0};
+    hd_image ref = {0};
     int rc = CLI_EXIT_FAIL, nfaces = 0;
-    if (hd_image_read_as(image_path, 3, &tex) != HD_OK || hd_image_read_as(ref_path, 3, &ref) != HD_OK ||
-        (!photo && hd_face_mask_read(image_path, mask_path, tex.width, tex.height, &mask, &mask_source) != HD_OK) ||
-        hd_model_load(model_path, &model) != HD_OK || ((photo || ref_photo) && hd_aligner_load(&aligner) != HD_OK)) {
+    /* one model and aligner for the reference and every input */
+    int photos = 0;
+    hd_status st = cli_inputs_collect(&in, pos, npos);
+    for (int i = 0; i < in.count && !aligned; i++) photos += hd_input_kind_of(in.v[i].path) == HD_INPUT_PHOTO;
+    if (st != HD_OK || hd_image_read_as(ref_path, 3, &ref) != HD_OK || hd_model_load(model_path, &run.model) != HD_OK ||
+        ((ref_photo || photos) && hd_aligner_load(&run.aligner) != HD_OK)) {
         rc = cli_report("transfer");
         goto done;
     }
-    /* the reference's light, then IMG relit under it (as estimate-light + relight --light) */
-    hd_status st = ref_photo ? hd_estimate_light_photo(model, aligner, &ref, light, &nfaces)
-                             : hd_estimate_light(model, &ref, light);
+    hd_aligner_set_min_score(run.aligner, min_score);
+    st = ref_photo ? hd_estimate_light_photo(run.model, run.aligner, &ref, run.light, &nfaces)
+                             : hd_estimate_light(run.model, &ref, run.light);
     if (st != HD_OK) {
         rc = ref_photo ? cli_report_photo("transfer", st, ref_path) : cli_report("transfer");
         goto done;
@@ -70,30 +126,13 @@ int cmd_transfer(int argc, char **argv)
     if (ref_photo && nfaces > 1)
         fprintf(stderr, "hdnet transfer: note: %s has %d faces; the light is that of face 0 (best score)\n", ref_path,
                 nfaces);
-    if (photo) {
-        st = hd_relight_photo(model, aligner, &tex, (const float (*)[HD_SH_COEFFS])&light, 1, brightness, &relit, NULL,
-                              &nfaces);
-        if (st != HD_OK) {
-            rc = cli_report_photo("transfer", st, image_path);
-            goto done;
-        }
-    } else if (hd_relight_face(model, &tex, &mask, light, brightness, &relit) != HD_OK) {
-        rc = cli_report("transfer");
-        goto done;
-    }
-    if (hd_image_write_picture(out, &relit) != HD_OK) {
-        rc = cli_report("transfer");
-        goto done;
-    }
-    cli_note_mask("transfer", photo, mask_path, mask_source);
-    rc = CLI_EXIT_OK;
+    if (photos) cli_note_mask("transfer", 1, mask_path, NULL);
+    rc = cli_batch_run("transfer", "relit", &in, out, single, quiet, transfer_one, &run, NULL);
 done:
-    hd_image_free(&relit);
-    hd_image_free(&tex);
     hd_image_free(&ref);
-    hd_image_free(&mask);
-    if (model) hd_model_free(model);
-    hd_aligner_free(aligner);
-    free(mask_source);
+    if (run.model) hd_model_free(run.model);
+    hd_aligner_free(run.aligner);
+    cli_inputs_free(&in);
+    free(pos);
     return rc;
 }

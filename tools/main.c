@@ -26,7 +26,9 @@ static void print_help(FILE *out)
                  "Face inverse rendering and relighting (HD-Net) in plain C.\n\ncommands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         fprintf(out, "  %-16s %s\n", commands[i].name, commands[i].summary);
-    fprintf(out, "  %-16s %s\n", "help", "this list; `hdnet <command> --help` for one command");
+    fprintf(out, "  %-16s %s\n", "help", "this list; `hdnet help <command>` (= `hdnet <command> --help`) for one");
+    fprintf(out, "\n  %-16s %s\n", "--version", "print the version and exit");
+    fprintf(out, "  %-16s %s\n", "-h, --help", "this list");
 }
 
 int main(int argc, char **argv)
@@ -37,13 +39,17 @@ int main(int argc, char **argv)
     }
     const char *name = argv[1];
     if (strcmp(name, "help") == 0 || strcmp(name, "--help") == 0 || strcmp(name, "-h") == 0) {
-        if (argc > 2) {
+        if (argc > 3) {
+            fprintf(stderr, "hdnet help: too many arguments ('%s' is not expected)\n", argv[3]);
+            return CLI_EXIT_USAGE;
+        }
+        if (argc > 2 && strcmp(argv[2], "--help") != 0 && strcmp(argv[2], "-h") != 0) {
             for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
                 if (strcmp(commands[i].name, argv[2]) == 0) {
                     char *help_argv[] = {argv[2], "--help", NULL};
                     return commands[i].run(2, help_argv);
                 }
-            fprintf(stderr, "hdnet: unknown command '%s'\n", argv[2]);
+            fprintf(stderr, "hdnet help: unknown command '%s' (see: hdnet help)\n", argv[2]);
             return CLI_EXIT_USAGE;
         }
         print_help(stdout);

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cli.h"
+#include "hdnet_tool.h"
 
 int cli_usage_error(const cli_cmd_spec *spec, const char *fmt, ...)
 {
@@ -15,6 +16,24 @@ int cli_usage_error(const cli_cmd_spec *spec, const char *fmt, ...)
     va_end(ap);
     fprintf(stderr, "\n(see: hdnet %s --help)\n", spec->name);
     return CLI_EXIT_USAGE;
+}
+
+const char *cli_min_score_help(void)
+{
+    static char help[96];
+    snprintf(help, sizeof help, "face detection threshold in (0, 1] (default %.2f)", (double)HD_FACE_MIN_SCORE);
+    return help;
+}
+
+float cli_min_score_default(void) { return HD_FACE_MIN_SCORE; }
+
+int cli_opts_common(const cli_cmd_spec *spec, int threads, float min_score)
+{
+    if (threads < 0 || threads > 1024) return cli_usage_error(spec, "--threads wants 0..1024, got %d", threads);
+    if (!(min_score > 0.0f && min_score <= 1.0f))
+        return cli_usage_error(spec, "--min-score must be in (0, 1], got %g", (double)min_score);
+    if (threads > 0) hd_set_threads(threads);
+    return 0;
 }
 
 int cli_report(const char *cmd)
@@ -41,7 +60,7 @@ void cli_note_mask(const char *cmd, int photo, const char *mask_path, const char
         fprintf(stderr, "hdnet %s: note: used %s beside the image, not --mask %s\n", cmd, mask_source, mask_path);
 }
 
-static const char *kind_metavar(const cli_opt *o)
+const char *cli_opt_metavar(const cli_opt *o)
 {
     if (o->metavar) return o->metavar;
     switch (o->kind) {
@@ -54,6 +73,47 @@ static const char *kind_metavar(const cli_opt *o)
     return "";
 }
 
+/* Prints text word-wrapped to HELP_WIDTH columns, continuation lines indented by `indent`;
+ * a '\n' in text starts a new (indented) line. `col` is the column the text starts at. */
+#define HELP_WIDTH 100
+static void print_wrapped(FILE *out, const char *text, int col, int indent)
+{
+    const char *s = text;
+    while (*s) {
+        if (*s == '\n') {
+            fprintf(out, "\n%*s", indent, "");
+            col = indent;
+            s++;
+            continue;
+        }
+        if (*s == ' ') {
+            s++;
+            continue;
+        }
+        size_t n = strcspn(s, " \n");
+        if (col > indent && col + 1 + (int)n > HELP_WIDTH) {
+            fprintf(out, "\n%*s", indent, "");
+            col = indent;
+        } else if (col > indent) {
+            fputc(' ', out);
+            col++;
+        }
+        fprintf(out, "%.*s", (int)n, s);
+        col += (int)n;
+        s += n;
+    }
+    fputc('\n', out);
+}
+
+/* "-o, --output OUT" or "    --size S": the left column of an option's help line. */
+void cli_opt_synopsis(const cli_opt *o, char *left, size_t size)
+{
+    int n = o->short_name ? snprintf(left, size, "-%c, ", o->short_name) : snprintf(left, size, "    ");
+    if (n < 0 || (size_t)n >= size) return;
+    snprintf(left + n, size - (size_t)n, "--%s%s%s", o->name, o->kind == CLI_OPT_FLAG ? "" : " ",
+             o->kind == CLI_OPT_FLAG ? "" : cli_opt_metavar(o));
+}
+
 void cli_opts_help(const cli_cmd_spec *spec, FILE *out)
 {
     fprintf(out, "usage: hdnet %s %s\n", spec->name, spec->usage);
@@ -61,12 +121,9 @@ void cli_opts_help(const cli_cmd_spec *spec, FILE *out)
     fprintf(out, "\noptions:\n");
     for (const cli_opt *o = spec->opts; o && o->name; o++) {
         char left[96];
-        int n = 0;
-        if (o->short_name) n = snprintf(left, sizeof left, "-%c, ", o->short_name);
-        else n = snprintf(left, sizeof left, "    ");
-        snprintf(left + n, sizeof left - (size_t)n, "--%s%s%s", o->name, o->kind == CLI_OPT_FLAG ? "" : " ",
-                 o->kind == CLI_OPT_FLAG ? "" : kind_metavar(o));
-        fprintf(out, "  %-28s %s\n", left, o->help ? o->help : "");
+        cli_opt_synopsis(o, left, sizeof left);
+        int col = fprintf(out, "  %-28s ", left);
+        print_wrapped(out, o->help ? o->help : "", col, 31);
     }
     fprintf(out, "  %-28s %s\n", "-h, --help", "show this help and exit");
 }
@@ -155,12 +212,20 @@ int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***posi
             for (const cli_opt *o = spec->opts; o && o->name; o++)
                 if (strlen(o->name) == len && strncmp(o->name, name, len) == 0) found = o;
             if (eq) inline_value = eq + 1;
-        } else if (a[2] == '\0') {
-            for (const cli_opt *o = spec->opts; o && o->name; o++)
-                if (o->short_name == a[1]) found = o;
         } else if (a[1] == '.' || (a[1] >= '0' && a[1] <= '9')) {
             pos[np++] = argv[i]; /* a negative number */
             continue;
+        } else {
+            for (const cli_opt *o = spec->opts; o && o->name; o++)
+                if (o->short_name == a[1]) found = o;
+            if (found && a[2] != '\0') { /* -oFILE, -j2 */
+                if (found->kind == CLI_OPT_FLAG) {
+                    free(pos);
+                    *exit_code = cli_usage_error(spec, "-%c takes no value (in '%s')", a[1], a);
+                    return 1;
+                }
+                inline_value = a + 2;
+            }
         }
         if (!found) {
             free(pos);
@@ -179,7 +244,7 @@ int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***posi
         if (!inline_value) {
             if (i + 1 >= argc) {
                 free(pos);
-                *exit_code = cli_usage_error(spec, "--%s needs a value (%s)", found->name, kind_metavar(found));
+                *exit_code = cli_usage_error(spec, "--%s needs a value (%s)", found->name, cli_opt_metavar(found));
                 return 1;
             }
             inline_value = argv[++i];
@@ -192,11 +257,11 @@ int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***posi
         }
     }
     if (np < spec->positional_min || (spec->positional_max >= 0 && np > spec->positional_max)) {
-        free(pos);
         if (np < spec->positional_min)
             *exit_code = cli_usage_error(spec, "missing argument (usage: hdnet %s %s)", spec->name, spec->usage);
-        else
-            *exit_code = cli_usage_error(spec, "too many arguments ('%s' is not expected)", argv[argc - 1]);
+        else /* the first word past what the command takes */
+            *exit_code = cli_usage_error(spec, "too many arguments ('%s' is not expected)", pos[spec->positional_max]);
+        free(pos);
         return 1;
     }
     *positional = pos;

@@ -377,3 +377,8 @@ done:
     hd_image_free(&rgb);
     return st;
 }
+
+void hd_aligner_set_min_score(hd_aligner *aligner, float min_score)
+{
+    if (aligner && min_score > 0.0f && min_score <= 1.0f) aligner->min_score = min_score;
+}
