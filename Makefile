@@ -217,14 +217,23 @@ bench: hdnet
 demo: hdnet
 	sh examples/demo.sh
 
+# The man page and the bash completion, generated from the commands' option tables.
+$(BUILD)/hdnet.1: $(BUILD)/hdnet
+	$(BUILD)/hdnet --man > $@.tmp && mv $@.tmp $@
+$(BUILD)/hdnet.bash: $(BUILD)/hdnet
+	$(BUILD)/hdnet --completion bash > $@.tmp && mv $@.tmp $@
+
 # Installs the tool, both libraries, the header, the pkg-config file and the shipped data. The
 # data lookup has PREFIX compiled in, so the library is relinked for the PREFIX given here.
 LIBDIR  ?= $(PREFIX)/lib
 # The Python module goes where Debian's python3 looks under the prefix (PREFIX/lib/python3.X/
 # dist-packages: on sys.path for /usr/local; for another prefix, put it on PYTHONPATH).
 PYDIR   ?= $(shell /usr/bin/python3 -c 'import sys; print("$(LIBDIR)/python%d.%d/dist-packages" % sys.version_info[:2])' 2>/dev/null)
-install: hdnet $(BUILD)/libhdnet.so
+install: hdnet $(BUILD)/libhdnet.so $(BUILD)/hdnet.1 $(BUILD)/hdnet.bash
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/share/hdnet
+	install -d $(DESTDIR)$(PREFIX)/share/man/man1 $(DESTDIR)$(PREFIX)/share/bash-completion/completions
+	install -m 644 $(BUILD)/hdnet.1 $(DESTDIR)$(PREFIX)/share/man/man1/hdnet.1
+	install -m 644 $(BUILD)/hdnet.bash $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hdnet
 	install -m 755 $(BUILD)/hdnet $(DESTDIR)$(PREFIX)/bin/hdnet
 	install -m 644 $(BUILD)/libhdnet.a $(DESTDIR)$(LIBDIR)/libhdnet.a
 	install -m 755 $(BUILD)/libhdnet.so.$(VERSION) $(DESTDIR)$(LIBDIR)/libhdnet.so.$(VERSION)

@@ -1,7 +1,8 @@
 /* bench.h: what `hdnet bench` measures, shared between the engine part (tools/cmd_bench.c: SGEMM
  * peak, per-layer convolutions, Common-Net) and the whole-network part (tools/bench_hdnet.c:
  * HD-Net forward per image, training step per pair, peak memory) and the alignment part
- * (tools/bench_align.c: alignment time per photo). */
+ * (tools/bench_align.c: alignment time per photo) and the photo throughput part
+ * (tools/bench_photos.c: photos per second end to end). */
 #ifndef HD_BENCH_H
 #define HD_BENCH_H
 
@@ -18,5 +19,12 @@ typedef struct bench_args {
  * linked in is skipped (weak symbols). */
 int bench_hdnet(const bench_args *a) __attribute__((weak));
 int bench_align(const bench_args *a) __attribute__((weak));
+int bench_photos(const bench_args *a) __attribute__((weak));
+
+/* Shared by the sections (bench_align.c): the bundled photo examples/astronaut.png (., or beside
+ * the executable; its path into path), and the median of n values (sorts v). */
+#include "hdnet.h"
+hd_status bench_read_photo(hd_image *photo, char *path, size_t cap);
+double bench_median(double *v, int n);
 
 #endif /* HD_BENCH_H */

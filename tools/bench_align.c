@@ -16,14 +16,14 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static double median(double *v, int n)
+double bench_median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 /* The bundled photo: ./examples, or beside the executable (../examples, ../../examples). */
-static hd_status read_photo(hd_image *photo, char *path, size_t cap)
+hd_status bench_read_photo(hd_image *photo, char *path, size_t cap)
 {
     char exe[4096];
     const char *tries[3] = {"examples/astronaut.png", "/../examples/astronaut.png", "/../../examples/astronaut.png"};
@@ -54,7 +54,7 @@ int bench_align(const bench_args *a)
     double *t_align = hd_calloc((size_t)repeats, sizeof(double));
     int count = 0, rc = 1;
     float lm[HD_FACE_MESH_POINTS][3], presence;
-    if (!t_detect || !t_mesh || !t_align || read_photo(&photo, path, sizeof path) != HD_OK) goto done;
+    if (!t_detect || !t_mesh || !t_align || bench_read_photo(&photo, path, sizeof path) != HD_OK) goto done;
     double t0 = hd_seconds();
     if (hd_face_detector_load(NULL, &det) != HD_OK || hd_face_mesh_load(NULL, &mesh) != HD_OK) goto done;
     double t_load = hd_seconds() - t0;
@@ -78,7 +78,7 @@ int bench_align(const bench_args *a)
         t_align[r] = hd_seconds() - t0;
         hd_aligned_faces_free(aligned, naligned);
     }
-    double md = median(t_detect, repeats), mm = median(t_mesh, repeats), ma = median(t_align, repeats);
+    double md = bench_median(t_detect, repeats), mm = bench_median(t_mesh, repeats), ma = bench_median(t_align, repeats);
     /* The group-sized photo: the bundled photo tiled 4 x 3 at 500 x 500. */
     const int GW = 2000, GH = 1500, GT = 500;
     if (hd_image_resize(&photo, GT, GT, &tile) || hd_image_alloc(&group, GW, GH, 3)) goto done;
@@ -95,7 +95,7 @@ int bench_align(const bench_args *a)
         if (hd_face_detector_run(det, &group, HD_FACE_MIN_SCORE, &faces, &group_faces) != HD_OK) goto done;
         t_detect[r] = hd_seconds() - t0;
     }
-    double mg = median(t_detect, group_runs), mpix = 1e-6 * GW * GH;
+    double mg = bench_median(t_detect, group_runs), mpix = 1e-6 * GW * GH;
     if (a->json) {
         fprintf(out, "\"align_models_load_s\": %.6f,\n", t_load);
         fprintf(out, "\"align_detect_s\": %.6f,\n", md);

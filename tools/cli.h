@@ -14,6 +14,15 @@
 
 enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
 
+#define CLI_VERSION "0.1.0"
+
+/* A registered command (main.c's table, from the CLI_COMMAND lines). */
+typedef struct cli_command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} cli_command;
+
 typedef enum cli_opt_kind {
     CLI_OPT_FLAG,   /* int, set to 1 */
     CLI_OPT_INT,    /* int */
@@ -51,6 +60,13 @@ typedef struct cli_cmd_spec {
 int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
                   int *exit_code);
 void cli_opts_help(const cli_cmd_spec *spec, FILE *out);
+/* While fn is set, cli_opts_parse hands each spec to fn(spec, ctx) and returns at once (exit code
+ * 0) instead of parsing: how the man page and the completion read every command's table without
+ * running it. NULL turns it off. */
+void cli_opts_visit(void (*fn)(const cli_cmd_spec *spec, void *ctx), void *ctx);
+/* `hdnet --man` and `hdnet --completion bash` (docgen.c): generated from the option tables. */
+int cli_print_man(const cli_command *commands, int count, FILE *out);
+int cli_print_completion(const cli_command *commands, int count, FILE *out);
 /* An option's value placeholder ("N", "OUT.png"; "" for a flag) and its help-line synopsis
  * ("-o, --output OUT.png"). */
 const char *cli_opt_metavar(const cli_opt *o);

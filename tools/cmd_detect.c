@@ -3,8 +3,10 @@
  * the landmarks as text, and draws the box, keypoints, landmark crop and landmarks on the photo
  * (docs/img/align-detect.png and align-landmarks.png are made with it). */
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include "batch.h"
 #include "cli.h"
 #include "hdnet_tool.h"
 
@@ -134,11 +136,59 @@ static hd_status write_landmarks(const char *path, const hd_face_box *faces, con
     return hd_atomic_commit(&af);
 }
 
+/* printf when on (the text lines, which --json replaces). */
+static void say(int on, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void say(int on, const char *fmt, ...)
+{
+    if (!on) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vprintf(fmt, ap);
+    va_end(ap);
+}
+
+/* The --json document (docs/usage.md, "hdnet detect"). */
+static cJSON *detect_json(const char *path, const hd_image *photo, float min_score, double seconds,
+                          const hd_face_box *faces, int count, const float (*lm)[HD_FACE_MESH_POINTS][3],
+                          const float *presence, const char *out, const char *landmarks_path)
+{
+    static const char *const keys[HD_FACE_KEYPOINTS] = {"right_eye", "left_eye", "nose_tip", "mouth", "right_ear", "left_ear"};
+    cJSON *doc = cJSON_CreateObject();
+    if (!doc) return NULL;
+    cJSON_AddStringToObject(doc, "file", path);
+    cJSON_AddNumberToObject(doc, "width", photo->width);
+    cJSON_AddNumberToObject(doc, "height", photo->height);
+    cJSON_AddNumberToObject(doc, "min_score", min_score);
+    cJSON_AddNumberToObject(doc, "detection_ms", 1e3 * seconds);
+    cJSON *arr = cJSON_AddArrayToObject(doc, "faces");
+    for (int i = 0; i < count && arr; i++) {
+        cJSON *f = cJSON_CreateObject();
+        if (!f) break;
+        cJSON_AddNumberToObject(f, "index", i);
+        cJSON_AddNumberToObject(f, "score", faces[i].score);
+        const float b[4] = {faces[i].x0, faces[i].y0, faces[i].x1, faces[i].y1};
+        cJSON_AddItemToObject(f, "box", cJSON_CreateFloatArray(b, 4));
+        cJSON *kp = cJSON_AddObjectToObject(f, "keypoints");
+        for (int k = 0; k < HD_FACE_KEYPOINTS && kp; k++)
+            cJSON_AddItemToObject(kp, keys[k], cJSON_CreateFloatArray(faces[i].keypoints[k], 2));
+        if (lm) {
+            cJSON_AddNumberToObject(f, "presence", presence[i]);
+            cJSON *pts = cJSON_AddArrayToObject(f, "landmarks");
+            for (int k = 0; k < HD_FACE_MESH_POINTS && pts; k++)
+                cJSON_AddItemToArray(pts, cJSON_CreateFloatArray(lm[i][k], 3));
+        }
+        cJSON_AddItemToArray(arr, f);
+    }
+    if (out) cJSON_AddStringToObject(doc, "output", out);
+    if (landmarks_path) cJSON_AddStringToObject(doc, "landmarks_file", landmarks_path);
+    return doc;
+}
+
 int cmd_detect(int argc, char **argv)
 {
     const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
     float min_score = HD_FACE_MIN_SCORE, min_face = HD_FACE_MIN_SIZE;
-    int no_landmarks = 0, zoom_size = 0, threads = 0;
+    int no_landmarks = 0, zoom_size = 0, threads = 0, json = 0;
     const cli_opt opts[] = {
         {"output", 'o', CLI_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
         {"landmarks", 0, CLI_OPT_STRING, &landmarks_path, "L.txt",
@@ -153,6 +203,7 @@ int cmd_detect(int argc, char **argv)
          "landmarks, mesh (the canonical mesh's triangles on the landmarks) (default box,keypoints,landmarks)"},
         {"zoom", 0, CLI_OPT_INT, &zoom_size, "N",
          "draw only the first face's landmark crop, enlarged to N x N pixels (default 0: the whole photo)"},
+        CLI_OPT_JSON_ROW(json),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -162,7 +213,7 @@ int cmd_detect(int argc, char **argv)
         "(the vertex order of models/canonical_face_model.obj). Prints one line per face (score, box)\n"
         "and its six keypoints.\n"
         "Photo coordinates: pixels, x right, y down, pixel (i, j) centred at (i + 0.5, j + 0.5).\n"
-        "A photo without a face is not an error: it prints 'no face found'.",
+        "A photo without a face is not an error: it prints 'no face found' (--json: an empty \"faces\").",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -188,14 +239,14 @@ int cmd_detect(int argc, char **argv)
     hd_face_roi *rois = NULL;
     canvas cv = {0};
     hd_mesh canonical = {0};
-    int count = 0, rc = CLI_EXIT_FAIL;
+    int count = 0, rc = CLI_EXIT_FAIL, reported = 0;
     if (hd_image_read_as(path, 3, &photo) != HD_OK || hd_face_detector_load(NULL, &det) != HD_OK) goto done;
     double t0 = hd_seconds();
     if (hd_face_detector_find(det, &photo, min_score, min_face, &faces, &count) != HD_OK) goto done;
     double t_detect = hd_seconds() - t0;
-    printf("%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
+    say(!json, "%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
     if (count == 0) {
-        printf("no face found (score threshold %.2f)%s\n", (double)min_score,
+        say(!json, "no face found (score threshold %.2f)%s\n", (double)min_score,
                zoom_size && out ? ": nothing to zoom to, drawing the whole photo" : "");
         zoom_size = 0;
     }
@@ -207,17 +258,17 @@ int cmd_detect(int argc, char **argv)
     }
     for (int i = 0; i < count; i++) {
         const hd_face_box *f = &faces[i];
-        printf("face %d: score %.3f box (%.1f, %.1f)-(%.1f, %.1f)\n", i, (double)f->score, (double)f->x0,
+        say(!json, "face %d: score %.3f box (%.1f, %.1f)-(%.1f, %.1f)\n", i, (double)f->score, (double)f->x0,
                (double)f->y0, (double)f->x1, (double)f->y1);
         for (int k = 0; k < HD_FACE_KEYPOINTS; k++)
-            printf("  %-9s (%.1f, %.1f)\n", keypoint_names[k], (double)f->keypoints[k][0], (double)f->keypoints[k][1]);
+            say(!json, "  %-9s (%.1f, %.1f)\n", keypoint_names[k], (double)f->keypoints[k][0], (double)f->keypoints[k][1]);
         if (!mesh) continue;
         t0 = hd_seconds();
         if (hd_face_mesh_fit(mesh, &photo, f, 2, lm[i], &presence[i]) != HD_OK) goto done;
         hd_face_roi_from_landmarks((const float(*)[3])lm[i], &rois[i]);
-        printf("  landmarks: presence %.3f, crop %.1f px at %.1f degrees (%.1f ms)\n", (double)presence[i],
+        say(!json, "  landmarks: presence %.3f, crop %.1f px at %.1f degrees (%.1f ms)\n", (double)presence[i],
                (double)rois[i].size, (double)(rois[i].angle * 57.29578f), 1e3 * (hd_seconds() - t0));
-        if (presence[i] < 0.5f) printf("  (the face mesh doubts this is a face)\n");
+        if (presence[i] < 0.5f) say(!json, "  (the face mesh doubts this is a face)\n");
     }
     if (landmarks_path && write_landmarks(landmarks_path, faces, (const float(*)[HD_FACE_MESH_POINTS][3])lm, presence,
                                           count) != HD_OK)
@@ -259,11 +310,16 @@ int cmd_detect(int argc, char **argv)
             draw_face(&cv, &faces[i], &box_roi, lm ? (const float(*)[3])lm[i] : NULL, &canonical, draw);
         }
         if (hd_image_write_png(out, &cv.img, 8) != HD_OK) goto done;
-        printf("wrote %s\n", out);
+        say(!json, "wrote %s\n", out);
     }
-    rc = CLI_EXIT_OK;
+    rc = json ? cli_json_print("detect",
+                               detect_json(path, &photo, min_score, t_detect, faces, count,
+                                           (const float(*)[HD_FACE_MESH_POINTS][3])lm, presence, out, landmarks_path),
+                               CLI_EXIT_OK)
+              : CLI_EXIT_OK;
+    reported = rc != CLI_EXIT_OK; /* cli_json_print said why */
 done:
-    if (rc != CLI_EXIT_OK) cli_report("detect");
+    if (rc != CLI_EXIT_OK && !reported) cli_report("detect");
     hd_image_free(&cv.img);
     hd_mesh_free(&canonical);
     hd_image_free(&photo);

@@ -1,9 +1,11 @@
 /* cmd_info.c: `hdnet info FILE...`: says what each file is (image, checkpoint or light file) and
  * what it holds, after reading it with the same checked readers every other command uses; a
- * broken file gets the reader's reason and exit status 1 (docs/formats.md lists the formats). */
+ * broken file gets the reader's reason and exit status 1 (docs/formats.md lists the formats).
+ * With --json the same facts go into one JSON document (j: the file's object; NULL for text). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "batch.h"
 #include "cli.h"
 
 CLI_COMMAND("info", cmd_info, "describe image, checkpoint (safetensors) and light files")
@@ -31,7 +33,7 @@ static file_kind guess_kind(const char *path)
     return KIND_IMAGE;
 }
 
-static int info_image(const char *path)
+static int info_image(const char *path, cJSON *j)
 {
     hd_image img = {0};
     hd_image_info info;
@@ -41,9 +43,22 @@ static int info_image(const char *path)
                                             {"gray", "alpha"},
                                             {"red", "green", "blue"},
                                             {"red", "green", "blue", "alpha"}};
-    printf("%s: %s image, %d x %d, %d channel%s, %d bit%s%s\n", path, info.format, img.width, img.height,
-           img.channels, img.channels == 1 ? "" : "s", info.bits, info.format[1] == 'F' ? " float" : "",
-           info.palette ? " palette" : "");
+    cJSON *stats = NULL;
+    if (j) {
+        cJSON_AddStringToObject(j, "kind", "image");
+        cJSON_AddStringToObject(j, "format", info.format);
+        cJSON_AddNumberToObject(j, "width", img.width);
+        cJSON_AddNumberToObject(j, "height", img.height);
+        cJSON_AddNumberToObject(j, "channels", img.channels);
+        cJSON_AddNumberToObject(j, "bits", info.bits);
+        cJSON_AddBoolToObject(j, "float", info.format[1] == 'F');
+        cJSON_AddBoolToObject(j, "palette", info.palette != 0);
+        stats = cJSON_AddArrayToObject(j, "channel_stats");
+    } else {
+        printf("%s: %s image, %d x %d, %d channel%s, %d bit%s%s\n", path, info.format, img.width, img.height,
+               img.channels, img.channels == 1 ? "" : "s", info.bits, info.format[1] == 'F' ? " float" : "",
+               info.palette ? " palette" : "");
+    }
     size_t np = (size_t)img.width * img.height;
     for (int c = 0; c < img.channels; c++) {
         const float *p = img.data + c * np;
@@ -54,7 +69,16 @@ static int info_image(const char *path)
             if (p[i] > hi) hi = p[i];
             sum += p[i];
         }
-        printf("  %-6s min %.6g  max %.6g  mean %.6g\n", names[img.channels][c], lo, hi, sum / np);
+        if (stats) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "name", names[img.channels][c]);
+            cJSON_AddNumberToObject(o, "min", lo);
+            cJSON_AddNumberToObject(o, "max", hi);
+            cJSON_AddNumberToObject(o, "mean", sum / np);
+            cJSON_AddItemToArray(stats, o);
+        } else if (!j) {
+            printf("  %-6s min %.6g  max %.6g  mean %.6g\n", names[img.channels][c], lo, hi, sum / np);
+        }
     }
     hd_image_free(&img);
     return 0;
@@ -73,7 +97,7 @@ static void print_escaped(const char *s, size_t max)
     if (s[i]) printf("...");
 }
 
-static int info_safetensors(const char *path, int show)
+static int info_safetensors(const char *path, int show, cJSON *j)
 {
     hd_safetensors st;
     if (hd_safetensors_read(path, &st) != HD_OK) return 1;
@@ -82,6 +106,22 @@ static int info_safetensors(const char *path, int show)
         long long n = 1;
         for (int d = 0; d < st.tensors[i].ndim; d++) n *= st.tensors[i].shape[d];
         params += n;
+    }
+    if (j) { /* every tensor, the metadata as strings */
+        cJSON_AddStringToObject(j, "kind", "safetensors");
+        cJSON_AddNumberToObject(j, "parameters", (double)params);
+        cJSON *meta = cJSON_AddObjectToObject(j, "metadata");
+        for (int i = 0; i < st.meta_count && meta; i++) cJSON_AddStringToObject(meta, st.meta_keys[i], st.meta_values[i]);
+        cJSON *tensors = cJSON_AddArrayToObject(j, "tensors");
+        for (int i = 0; i < st.count && tensors; i++) {
+            cJSON *t = cJSON_CreateObject(), *shape = cJSON_CreateArray();
+            cJSON_AddStringToObject(t, "name", st.tensors[i].name);
+            for (int d = 0; d < st.tensors[i].ndim; d++) cJSON_AddItemToArray(shape, cJSON_CreateNumber((double)st.tensors[i].shape[d]));
+            cJSON_AddItemToObject(t, "shape", shape);
+            cJSON_AddItemToArray(tensors, t);
+        }
+        hd_safetensors_free(&st);
+        return 0;
     }
     printf("%s: safetensors, %d tensor%s, %lld parameters (F32), %d metadata entr%s\n", path, st.count,
            st.count == 1 ? "" : "s", params, st.meta_count, st.meta_count == 1 ? "y" : "ies");
@@ -103,14 +143,21 @@ static int info_safetensors(const char *path, int show)
     return 0;
 }
 
-static int info_light(const char *path)
+static int info_light(const char *path, cJSON *j)
 {
     float light[HD_SH_COEFFS];
     if (hd_light_read(path, light) != HD_OK) return 1;
-    printf("%s: light file, 9 spherical-harmonics coefficients (DPR order)\n ", path);
-    for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6g", light[k]);
     static const float dirs[5][3] = {{0, 0, 1}, {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}};
     static const char *const dir_names[5] = {"viewer", "right", "left", "up", "down"};
+    if (j) {
+        cJSON_AddStringToObject(j, "kind", "light");
+        cJSON_AddItemToObject(j, "light", cJSON_CreateFloatArray(light, HD_SH_COEFFS));
+        cJSON *sh = cJSON_AddObjectToObject(j, "shading");
+        for (int i = 0; i < 5 && sh; i++) cJSON_AddNumberToObject(sh, dir_names[i], hd_sh_shade(light, dirs[i]));
+        return 0;
+    }
+    printf("%s: light file, 9 spherical-harmonics coefficients (DPR order)\n ", path);
+    for (int k = 0; k < HD_SH_COEFFS; k++) printf(" %.6g", light[k]);
     printf("\n  shading toward");
     for (int i = 0; i < 5; i++) printf(" %s %.4f%s", dir_names[i], hd_sh_shade(light, dirs[i]), i < 4 ? "," : "");
     printf("\n");
@@ -119,13 +166,14 @@ static int info_light(const char *path)
 
 int cmd_info(int argc, char **argv)
 {
-    int show = 10;
+    int show = 10, json = 0;
     const cli_opt opts[] = {
-        {"tensors", 0, CLI_OPT_INT, &show, "N", "list the first N tensors of a checkpoint (default 10)"},
+        {"tensors", 0, CLI_OPT_INT, &show, "N", "list the first N tensors of a checkpoint (default 10; --json: all)"},
+        CLI_OPT_JSON_ROW(json),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "info", "[--tensors N] FILE...",
+        "info", "[--tensors N] [--json] FILE...",
         "Reads each file with hdnet's checked readers and says what it is: an image (PNG, JPEG or\n"
         "PFM: size, channels, bit depth, min/max/mean per channel), a checkpoint (safetensors:\n"
         "tensor count, parameters, metadata, the first tensors with their shapes) or a light file\n"
@@ -140,16 +188,34 @@ int cmd_info(int argc, char **argv)
         return cli_usage_error(&spec, "--tensors must be >= 0");
     }
     int failed = 0;
+    cJSON *doc = json ? cJSON_CreateObject() : NULL, *files = doc ? cJSON_AddArrayToObject(doc, "files") : NULL;
+    if (json && !files) {
+        cJSON_Delete(doc);
+        free(pos);
+        fprintf(stderr, "hdnet info: out of memory\n");
+        return CLI_EXIT_FAIL;
+    }
     for (int i = 0; i < npos; i++) {
         int bad = 0;
+        cJSON *j = NULL;
+        if (files) {
+            j = cJSON_CreateObject();
+            cJSON_AddStringToObject(j, "file", pos[i]);
+            cJSON_AddItemToArray(files, j);
+        }
         switch (guess_kind(pos[i])) {
-        case KIND_IMAGE: bad = info_image(pos[i]); break;
-        case KIND_SAFETENSORS: bad = info_safetensors(pos[i], show); break;
-        case KIND_LIGHT: bad = info_light(pos[i]); break;
+        case KIND_IMAGE: bad = info_image(pos[i], j); break;
+        case KIND_SAFETENSORS: bad = info_safetensors(pos[i], show, j); break;
+        case KIND_LIGHT: bad = info_light(pos[i], j); break;
         }
         fflush(stdout);
-        if (bad) failed = cli_report("info");
+        if (bad) {
+            failed = cli_report("info");
+            if (j) cJSON_AddStringToObject(j, "error", hd_error());
+        }
     }
     free(pos);
-    return failed ? CLI_EXIT_FAIL : CLI_EXIT_OK;
+    if (doc) cJSON_AddNumberToObject(doc, "failed", failed ? 1 : 0);
+    int rc = failed ? CLI_EXIT_FAIL : CLI_EXIT_OK;
+    return doc ? cli_json_print("info", doc, rc) : rc;
 }

@@ -10,13 +10,7 @@
 #undef HD_COMMAND
 #define HD_COMMAND CLI_COMMAND
 
-typedef struct command {
-    const char *name;
-    int (*run)(int argc, char **argv);
-    const char *summary;
-} command;
-
-static const command commands[] = {
+static const cli_command commands[] = {
 #include "commands.inc"
 };
 
@@ -56,8 +50,17 @@ int main(int argc, char **argv)
         return CLI_EXIT_OK;
     }
     if (strcmp(name, "--version") == 0) {
-        printf("hdnet 0.1.0\n");
+        printf("hdnet " CLI_VERSION "\n");
         return CLI_EXIT_OK;
+    }
+    /* generated documentation, not listed: `make install` writes the man page and completion */
+    const int ncommands = (int)(sizeof commands / sizeof commands[0]);
+    if (strcmp(name, "--man") == 0 && argc == 2) return cli_print_man(commands, ncommands, stdout);
+    if (strcmp(name, "--completion") == 0 && argc == 3 && strcmp(argv[2], "bash") == 0)
+        return cli_print_completion(commands, ncommands, stdout);
+    if (strcmp(name, "--completion") == 0) {
+        fprintf(stderr, "hdnet: --completion wants 'bash'\n");
+        return CLI_EXIT_USAGE;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(commands[i].name, name) == 0) return commands[i].run(argc - 1, argv + 1);

@@ -175,9 +175,25 @@ static int parse_value(const cli_cmd_spec *spec, const cli_opt *o, const char *t
     return 0;
 }
 
+static void (*visit_fn)(const cli_cmd_spec *spec, void *ctx);
+static void *visit_ctx;
+
+void cli_opts_visit(void (*fn)(const cli_cmd_spec *spec, void *ctx), void *ctx)
+{
+    visit_fn = fn;
+    visit_ctx = ctx;
+}
+
 int cli_opts_parse(const cli_cmd_spec *spec, int argc, char **argv, char ***positional, int *npositional,
                   int *exit_code)
 {
+    if (visit_fn) {
+        visit_fn(spec, visit_ctx);
+        *positional = NULL;
+        *npositional = 0;
+        *exit_code = CLI_EXIT_OK;
+        return 1;
+    }
     char **pos = calloc((size_t)argc + 1, sizeof *pos);
     int np = 0, only_positional = 0;
     *positional = NULL;
