@@ -297,6 +297,17 @@ cJSON *cli_summary_json(const cli_summary *s, const char *out)
     return o;
 }
 
+int cli_json_print_run(const char *cmd, cJSON **results, const cli_summary *s, const char *out, int ok_status)
+{
+    cJSON *doc = cJSON_CreateObject();
+    if (doc) {
+        cJSON_AddItemToObject(doc, "results", *results);
+        *results = NULL;
+        cJSON_AddItemToObject(doc, "summary", cli_summary_json(s, out));
+    }
+    return cli_json_print(cmd, doc, ok_status);
+}
+
 int cli_json_print(const char *cmd, cJSON *doc, int ok_status)
 {
     char *text = doc ? cJSON_Print(doc) : NULL;

@@ -71,5 +71,8 @@ cJSON *cli_summary_json(const cli_summary *s, const char *out);
 /* Prints a JSON document on stdout (indented) and deletes it; returns CLI_EXIT_FAIL (with a
  * message) if it could not be printed (out of memory), else ok_status. */
 int cli_json_print(const char *cmd, cJSON *doc, int ok_status);
+/* Prints {"results": *results, "summary": cli_summary_json(s, out)} that way; takes *results
+ * (set to NULL). */
+int cli_json_print_run(const char *cmd, cJSON **results, const cli_summary *s, const char *out, int ok_status);
 
 #endif /* HD_BATCH_H */

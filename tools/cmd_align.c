@@ -116,15 +116,7 @@ int cmd_align(int argc, char **argv)
     hd_aligner_set_min_score(run.aligner, min_score);
     cli_summary sum;
     rc = cli_batch_run("align", "aligned", &in, out_dir, 0, quiet || json, align_one, &run, &sum);
-    if (json) {
-        cJSON *doc = cJSON_CreateObject();
-        if (doc) {
-            cJSON_AddItemToObject(doc, "results", run.results);
-            run.results = NULL;
-            cJSON_AddItemToObject(doc, "summary", cli_summary_json(&sum, out_dir));
-        }
-        rc = cli_json_print("align", doc, rc);
-    }
+    if (json) rc = cli_json_print_run("align", &run.results, &sum, out_dir, rc);
 done:
     cJSON_Delete(run.results);
     hd_aligner_free(run.aligner);

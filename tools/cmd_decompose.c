@@ -370,15 +370,7 @@ int cmd_decompose(int argc, char **argv)
         printf("\n");
     }
     rc = cli_summary_status(&sum);
-    if (json) {
-        cJSON *doc = cJSON_CreateObject();
-        if (doc) {
-            cJSON_AddItemToObject(doc, "results", results);
-            results = NULL;
-            cJSON_AddItemToObject(doc, "summary", cli_summary_json(&sum, out));
-        }
-        rc = cli_json_print("decompose", doc, rc);
-    }
+    if (json) rc = cli_json_print_run("decompose", &results, &sum, out, rc);
 done:
     cJSON_Delete(results);
     if (model) hd_model_free(model);

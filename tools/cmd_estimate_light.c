@@ -134,15 +134,7 @@ int cmd_estimate_light(int argc, char **argv)
     cli_summary sum;
     rc = cli_batch_run("estimate-light", "estimated the light of", &in, out, single, quiet || json, estimate_one, &run,
                        &sum);
-    if (json) {
-        cJSON *doc = cJSON_CreateObject();
-        if (doc) {
-            cJSON_AddItemToObject(doc, "results", run.results);
-            run.results = NULL;
-            cJSON_AddItemToObject(doc, "summary", cli_summary_json(&sum, out));
-        }
-        rc = cli_json_print("estimate-light", doc, rc);
-    }
+    if (json) rc = cli_json_print_run("estimate-light", &run.results, &sum, out, rc);
 done:
     if (code) rc = code;
     cJSON_Delete(run.results);
