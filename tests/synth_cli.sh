@@ -62,7 +62,7 @@ expect_saying 2 "subjects" "$HDNET" synth x --per-subject 2
 expect_saying 2 "size" "$HDNET" synth x --subjects 1 --per-subject 1 --size 8
 expect_saying 2 "coarse-error" "$HDNET" synth x --subjects 1 --per-subject 1 --coarse-error 50
 expect_saying 2 "neither fast nor store" "$HDNET" synth x --subjects 1 --per-subject 1 --png zip
-expect_saying 2 "exactly one" "$HDNET" eval set
+expect_saying 2 "exclude each other" "$HDNET" eval set -m m.safetensors --pred pred # without either: the shipped model (tests/cli_options.sh)
 expect_saying 1 "no_such_dir" "$HDNET" eval no_such_dir --pred pred
 expect_saying 1 "" "$HDNET" eval set --pred no_such_pred
 exit 0

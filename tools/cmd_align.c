@@ -10,7 +10,7 @@
 CLI_COMMAND("align", cmd_align, "find the faces in photos and unwarp each into the aligned texture space")
 
 typedef struct align_run {
-    int size;
+    int size, verbose; /* verbose: a line per face (not with -q or --json) */
     hd_aligner *aligner;
     cJSON *results; /* --json: one object per photo done */
 } align_run;
@@ -35,6 +35,10 @@ static hd_status align_one(void *ctx, const cli_input *in, const char *out, int 
         snprintf(name, sizeof name, "face%d", k);
         st = hd_aligned_face_write(&faces[k], dir, name);
         if (st == HD_OK) r->faces++;
+        if (st == HD_OK && run->verbose)
+            printf("%s: face %d score %.2f box %.0f,%.0f-%.0f,%.0f fit rms %.2f px -> %s/%s.*\n", in->path, k,
+                   faces[k].score, faces[k].box[0], faces[k].box[1], faces[k].box[2], faces[k].box[3], faces[k].fit_rms,
+                   dir, name);
         cJSON *f = faces_json ? cJSON_CreateObject() : NULL;
         if (f) {
             cJSON_AddNumberToObject(f, "index", k);
@@ -106,7 +110,7 @@ int cmd_align(int argc, char **argv)
         return code;
     }
     cli_inputs in = {0};
-    align_run run = {size, NULL, json ? cJSON_CreateArray() : NULL};
+    align_run run = {size, !quiet && !json, NULL, json ? cJSON_CreateArray() : NULL};
     int rc = CLI_EXIT_FAIL;
     /* an unwritable -o fails before any work */
     if (cli_inputs_collect(&in, pos, np) != HD_OK || hd_mkdirs(out_dir) != HD_OK || hd_aligner_load(&run.aligner) != HD_OK) {
