@@ -24,7 +24,7 @@ expect_saying 0 "usage: hdnet <command>" "$HDNET" help -h
 expect_saying 2 "unknown command 'nosuch'" "$HDNET" help nosuch
 
 # compute: the commands that must take -j/--threads; detector: those that must take --min-score
-compute="align bench blend decompose delight detect estimate-light eval relight synth train transfer"
+compute="align bench blend decompose delight detect estimate-light eval relight serve synth train transfer"
 detector="align decompose delight detect estimate-light relight transfer"
 for c in $commands; do
     expect 0 "$HDNET" help "$c"

@@ -23,7 +23,7 @@ int cmd_serve(int argc, char **argv)
         {"host", 0, HD_OPT_STRING, &host, "ADDR",
          "address to bind (default 127.0.0.1: this machine only; 0.0.0.0 opens it to the network)"},
         HD_OPT_MODEL_ROW(model_path),
-        {"threads", 0, HD_OPT_INT, &threads, "N", "threads of the model's computations (default: all cores)"},
+        {"threads", 'j', HD_OPT_INT, &threads, "N", "threads of the model's computations (default: all cores)"},
         {"max-upload", 0, HD_OPT_FLOAT, &max_upload_mb, "MB", "largest photo upload accepted, in MB (default 25)"},
         {"max-pixels", 0, HD_OPT_FLOAT, &max_megapixels, "MP",
          "largest photo accepted, in megapixels, checked before decoding (default 16)"},
