@@ -233,7 +233,7 @@ static hd_status drain_encoder(hd_av_writer *w)
 static hd_status drain_audio(hd_av_writer *w, double until)
 {
     hd_av_reader *r = w->src;
-    if (!w->ast || !r) return HD_OK;
+    if (!w->ast || !r || r->nqueue == 0) return HD_OK; /* (an empty queue may have no array yet) */
     AVStream *in = r->fmt->streams[r->audio];
     int k = 0;
     for (; k < r->nqueue; k++) {
