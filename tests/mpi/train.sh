@@ -48,17 +48,21 @@ grep -q "do not divide among 2 ranks\|does not divide among 2 ranks" bad.log || 
 
 # a signal to one rank stops every rank at the same iteration, with rank 0's checkpoint
 long="$T --iters 100000 --every 100000"
-mpi 2 $long -o stopped > stopped.log 2>&1 &
-job=$!
-i=0
-while [ ! -s stopped/loss.csv ] || [ "$(wc -l < stopped/loss.csv)" -lt 3 ]; do
-    sleep 0.5; i=$((i + 1))
-    [ $i -lt 400 ] || { echo "FAIL: the 2-rank run did not start"; kill $job; exit 1; }
-done
-victim=$(pgrep -f "hdnet train data .*-o stopped" | tail -1)
-kill -TERM "$victim"
-rc=0
-wait $job || rc=$?
+# signal_one_rank RUN LINES SIGNAL: starts a long 2-rank run into RUN, waits until loss.csv has
+# LINES lines, sends SIGNAL to one rank and waits for the job; its exit status goes to $rc.
+signal_one_rank() {
+    mpi 2 $long -o "$1" > "$1.log" 2>&1 &
+    job=$!
+    i=0
+    while [ ! -s "$1/loss.csv" ] || [ "$(wc -l < "$1/loss.csv")" -lt "$2" ]; do
+        sleep 0.5; i=$((i + 1))
+        [ $i -lt 400 ] || { echo "FAIL: the 2-rank run did not start"; kill $job; exit 1; }
+    done
+    kill "-$3" "$(pgrep -f "hdnet train data .*-o $1" | tail -1)"
+    rc=0
+    wait $job || rc=$?
+}
+signal_one_rank stopped 3 TERM
 [ $rc -ne 0 ] || { echo "FAIL: a signalled run exited 0"; exit 1; }
 grep -q '"iteration":"[0-9]*"' stopped/checkpoint.safetensors 2>/dev/null || strings stopped/checkpoint.safetensors | grep -q iteration \
     || { echo "FAIL: no checkpoint after the signal"; cat stopped.log; exit 1; }
@@ -70,17 +74,7 @@ echo "a signal to one rank: both stopped at iteration $it with a checkpoint"
 mpi 2 $T --iters $((it + 2)) --resume -o stopped >/dev/null
 
 # a rank that dies makes the job fail, not hang
-mpi 2 $long -o killed > killed.log 2>&1 &
-job=$!
-i=0
-while [ ! -s killed/loss.csv ] || [ "$(wc -l < killed/loss.csv)" -lt 2 ]; do
-    sleep 0.5; i=$((i + 1))
-    [ $i -lt 400 ] || { echo "FAIL: the 2-rank run did not start"; kill $job; exit 1; }
-done
-victim=$(pgrep -f "hdnet train data .*-o killed" | tail -1)
-kill -KILL "$victim"
-rc=0
-wait $job || rc=$?
+signal_one_rank killed 2 KILL
 [ $rc -ne 0 ] || { echo "FAIL: a job with a killed rank exited 0"; exit 1; }
 [ $rc -ne 124 ] || { echo "FAIL: a job with a killed rank hung"; exit 1; }
 pgrep -f "hdnet train data .*-o killed" >/dev/null && { echo "FAIL: a rank outlived the job"; exit 1; }
