@@ -228,6 +228,29 @@ void hd_light_from_direction(float azimuth_deg, float elevation_deg, float inten
 hd_status hd_light_preset(int k, float light[HD_SH_COEFFS]);
 /* A size x size RGB picture of the light on a unit sphere (background black). */
 hd_status hd_light_sphere(const float light[HD_SH_COEFFS], int size, hd_image *out);
+/* A coloured light: 9 SH coefficients per colour channel (R, G, B), same frame and scale as a grey
+ * light (docs/formats.md, "RGB light files"). A grey light is three equal rows. */
+typedef struct hd_light_rgb {
+    float sh[3][HD_SH_COEFFS];
+} hd_light_rgb;
+void hd_light_rgb_from_grey(const float light[HD_SH_COEFFS], hd_light_rgb *out);
+/* 1 when the three rows are equal. */
+int hd_light_rgb_is_grey(const hd_light_rgb *light);
+/* A light file of 9 numbers (grey) or 27 (red's 9, then green's, then blue's), one or more a
+ * line; errors name the file. Writing gives 9 lines for a grey light, else 27. */
+hd_status hd_light_read_rgb(const char *path, hd_light_rgb *light);
+hd_status hd_light_write_rgb(const char *path, const hd_light_rgb *light);
+/* hd_light_from_direction times a colour (linear RGB factors, each >= 0). */
+void hd_light_rgb_from_direction(float azimuth_deg, float elevation_deg, float intensity, float ambient,
+                                 const float colour[3], hd_light_rgb *light);
+/* The light of an equirectangular environment map (RGB, any size; the centre column looks from
+ * the viewer toward the face, u grows toward the image's right (azimuth), the top row is straight
+ * up), turned by rotation_deg about the vertical axis (positive: the map's content moves toward
+ * the image's right): the diffuse shading (1/pi) int L(w) max(n.w, 0) dw, fitted with 9 SH
+ * coefficients per channel (a uniform map of radiance 1 gives shading 1). */
+hd_status hd_light_from_envmap(const hd_image *map, float rotation_deg, hd_light_rgb *light);
+/* A size x size RGB picture of the light on a unit sphere (background black), shown as s / 2. */
+hd_status hd_light_rgb_sphere(const hd_light_rgb *light, int size, hd_image *out);
 
 /* ---------------------------------------------------------------- the model (src/model) */
 
@@ -287,6 +310,53 @@ hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_
 hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
                       const hd_decomposition *ref, hd_brightness brightness, hd_image *out);
 
+/* ---- applying a model to a texture or a photo: the one home (src/apply/apply.c, docs/usage.md
+ * "The relighting rule"). */
+typedef enum hd_relight_rule {
+    /* out = I * (s(N, l_target) + g) / (s(N, l_source) + g): l_source the face's estimated light, g a
+     * guard; the eyes, the inside of the mouth and the brows take the change of the skin around
+     * them; the change fades to nothing at the face's edge (feathered), the rest is the input's bit
+     * for bit. Exactly the identity when the light does not change. The default. */
+    HD_RULE_RATIO = 0,
+    /* The paper's A_final = I / S times s(N, l_target) (hd_relight below), Poisson-blended into a
+     * photo: kept to measure against (hdnet eval --rule paper). */
+    HD_RULE_PAPER
+} hd_relight_rule;
+
+/* What to make of each face. */
+typedef struct hd_apply_request {
+    const hd_light_rgb *lights; /* count target lights (may be NULL when count is 0) */
+    int count;
+    int delight;                /* also the face under flat light */
+    int self;                   /* also the face under its own estimated light (the identity) */
+    hd_relight_rule rule;
+    hd_brightness brightness;   /* for the lights and the delit face */
+} hd_apply_request;
+
+/* What comes back: pictures of the input's size (a photo: copies of the photo with every face
+ * changed; a texture: the texture). */
+typedef struct hd_apply_result {
+    hd_image *relit;                       /* count pictures */
+    int count;
+    hd_image delit, self;                  /* when asked for */
+    int nfaces;
+    float (*face_light)[HD_SH_COEFFS];     /* nfaces: each face's estimated light (grey) */
+    struct hd_aligned_face *faces;         /* a photo's nfaces faces as aligned; NULL for a texture */
+} hd_apply_result;
+
+typedef struct hd_aligner hd_aligner;
+/* A photo (3 channels): every face aligned, decomposed once, changed as asked. No face:
+ * HD_ERR_NOTFOUND and nothing allocated. */
+hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *request,
+                         hd_apply_result *result);
+/* An aligned face texture (3 channels) with its mask (1 channel, any size; NULL: all ones). */
+hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_image *mask,
+                           const hd_apply_request *request, hd_apply_result *result);
+/* The same on a decomposition already made (d of `texture`; source: the face's light). */
+hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition *d, const hd_image *mask,
+                                 const hd_apply_request *request, hd_apply_result *result);
+void hd_apply_result_free(hd_apply_result *result);
+
 /* The same with a model: each decomposes its aligned face texture(s) one at a time, then calls
  * the function above (texture in, texture out; the cores of the hdnet commands). */
 hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image *mask,
@@ -339,6 +409,19 @@ hd_status hd_decompose_photo(hd_model *model, hd_aligner *aligner, const hd_imag
  * hd_estimate_light_photo then hd_relight_photo, as `hdnet transfer` does with photos. */
 hd_status hd_transfer_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_image *reference,
                             hd_brightness brightness, hd_image *out, int *nfaces);
+/* A photo decomposed (what `hdnet decompose` writes for a photo): every face aligned and decomposed
+ * (d[k] at the model's size), the photo with each face's reconstruction A * S warped back and
+ * Poisson-blended in (HD_WARP_REPLACE), and the maps warped back into the photo's frame at its
+ * full resolution: albedo (3), shading (1), normals (3, unit; 0 outside), and the face mask (1:
+ * 1 where a face's visible part lands, else 0); where faces overlap, the better-scoring one. */
+typedef struct hd_photo_maps {
+    int nfaces;
+    struct hd_aligned_face *faces;
+    hd_decomposition *d;
+    hd_image recon, albedo, shading, normal, mask;
+} hd_photo_maps;
+hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_photo_maps *maps);
+void hd_photo_maps_free(hd_photo_maps *maps);
 
 /* Contact sheets: a grid of square cells separated by plain borders, written as an 8-bit RGB PNG.
  * Each picture is resized to the cell (area down, bilinear up). */
@@ -521,6 +604,86 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
                       void (*warn)(const char *message));
 /* The report as JSON (written atomically). */
 hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
+
+/* Relighting measured on real photos without ground truth (src/eval/photo_metrics.c, docs/usage.md
+ * "Measuring relighting"). Each compares a relit photo with its input (RGB, same size) over the
+ * pixels the relighting changed (`changed`, one byte a pixel, from hd_photo_changed). */
+hd_status hd_photo_changed(const hd_image *input, const hd_image *relit, unsigned char **changed, long *count);
+/* 1000 x the mean over changed pixels of sum_c |rgb_c / (r + g + b) change| (pixels whose r + g + b
+ * is 0.06 or less in either picture left out): 0 when every colour is kept. */
+double hd_photo_chroma(const hd_image *input, const hd_image *relit, const unsigned char *changed);
+/* The correlation of the 5-point Laplacian of log(luminance + 1/255) of relit and input over the
+ * changed pixels: 1 when all detail is kept. Luminance: Rec. 709 weights of the stored values. */
+double hd_photo_detail(const hd_image *input, const hd_image *relit, const unsigned char *changed);
+/* The mean relit / input luminance ratio over discs of radius 0.12 x the pupils' distance around
+ * the two pupils (photo pixels, x y) over the same mean across the changed pixels (ratios where
+ * the input's luminance exceeds 0.02): 1 when the eyes follow the light. */
+double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigned char *changed,
+                     const float pupils[2][2]);
+/* The mean gradient magnitude (forward differences) of the luminance change relit - input on the
+ * border of the changed region (pixels with a 4-neighbour on the other side) over the same inside
+ * it: about 1 or less when there is no seam. NAN only for want of memory. */
+double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed);
+/* Mean absolute difference over the 3 channels of the pixels in `where` (NULL: all). */
+double hd_photo_mae(const hd_image *a, const hd_image *b, const unsigned char *where);
+/* The mean luminance of relit over that of input, over `where` (NULL: all). */
+double hd_photo_mean_lum_ratio(const hd_image *input, const hd_image *relit, const unsigned char *where);
+/* |a - b| / |a| (Euclidean norms of the 9 coefficients). */
+double hd_light_difference(const float a[HD_SH_COEFFS], const float b[HD_SH_COEFFS]);
+
+/* A whole run over a folder of people (one subfolder each, photos inside; NAME.tem beside a photo
+ * gives its pupils as points 0 and 1, else the eye contours' centres): every photo relit under the
+ * seven presets (brightness kept) and under its own estimated light, by `rule`. Per photo, the
+ * means over the presets of chroma, detail, glow, seam and lum (the face's mean luminance ratio),
+ * self (the MAE of the own-light result against the input over the pixels any preset changed),
+ * and, on a person's first photo, light (hd_light_difference of the first two photos' lights). */
+enum { HD_PM_CHROMA, HD_PM_DETAIL, HD_PM_GLOW, HD_PM_SEAM, HD_PM_SELF, HD_PM_LIGHT, HD_PM_LUM, HD_PHOTO_METRICS };
+enum { HD_PG_ALL, HD_PG_TUNING, HD_PG_HELDOUT };
+typedef struct hd_photo_row {
+    char name[128];              /* PERSON/NAME */
+    int heldout;                 /* the person is in the held-out list */
+    int pupils_from_tem;
+    double v[HD_PHOTO_METRICS];  /* NAN where not measured */
+} hd_photo_row;
+typedef struct hd_photo_eval {
+    int count, skipped;
+    hd_photo_row *rows;
+} hd_photo_eval;
+const char *hd_photo_metric_name(int metric);
+/* heldout_path (may be NULL): a file of held-out person IDs (blank- or line-separated, '#'
+ * comments). limit > 0: only the first `limit` people. A photo that fails (unreadable, no face)
+ * is reported through warn and skipped. */
+hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, hd_relight_rule rule,
+                            const char *heldout_path, int limit, hd_photo_eval *eval, void (*warn)(const char *message));
+void hd_photo_eval_free(hd_photo_eval *eval);
+/* The median of a metric over a group (HD_PG_*) and the row of its worst photo (-1 if none). */
+hd_status hd_photo_eval_summary(const hd_photo_eval *eval, int group, int metric, double *median, int *worst);
+hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *eval, const char *rule);
+
+/* Relighting against the truth on a paired synthetic set (src/eval/pair_eval.c): image i of each
+ * subject relit under the true light of the subject's next image j (cyclically) and compared with
+ * image j over both masks (and both true-normal masks), colours clamped to [0, 1]. Rows: the input
+ * unchanged; the exact decomposition (true albedo x s(true N, l_j)); the rule with the true
+ * normals and light; the model under the ratio rule; the model under the paper's rule (all at
+ * the true light's level: HD_BRIGHTNESS_FREE). MAE and RMSE over pixels x channels, PSNR from the
+ * pooled MSE, SSIM (Gaussian window of 1.5 pixels, per channel, the mean over masked pixels) as
+ * the mean over pairs. */
+enum { HD_PAIR_INPUT, HD_PAIR_EXACT, HD_PAIR_EXACT_RATIO, HD_PAIR_MODEL, HD_PAIR_PAPER, HD_PAIR_ROWS };
+typedef struct hd_pair_row {
+    char name[64];
+    double abs_sum, sq_sum, ssim_sum;
+    long n, pairs;
+    double mae, rmse, psnr, ssim;
+} hd_pair_row;
+typedef struct hd_pair_report {
+    hd_pair_row rows[HD_PAIR_ROWS];
+    long pairs, skipped;
+} hd_pair_report;
+hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *report, void (*warn)(const char *message));
+hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);
+/* SSIM of two pictures of one size (up to 3 channels, clamped to [0, 1]) averaged over the pixels
+ * with mask > 0.5 (NULL: all): 1 for equal pictures. NAN only for want of memory. */
+double hd_ssim_masked(const hd_image *a, const hd_image *b, const float *mask);
 
 
 /* ---------------------------------------------------------------- photo alignment (src/align) */

@@ -16,5 +16,6 @@
 #include "model/train.h"           /* training: `hdnet train` */
 #include "align/face_detect.h"     /* the detector, for `hdnet detect` */
 #include "align/face_landmarks.h"  /* the face mesh, for `hdnet detect` */
+#include "apply/apply.h"           /* the relighting rule's pieces, for `hdnet eval --sheets` */
 
 #endif /* HDNET_TOOL_H */

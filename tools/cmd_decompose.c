@@ -1,8 +1,9 @@
 /* cmd_decompose.c: `hdnet decompose`: photos and aligned face textures (files, or SPEC section 5
  * folders) into albedo, shading, normals, light and reconstruction, with a contact sheet per image,
  * textures in batches with a progress line (docs/usage.md gives the output layout, which `hdnet eval
- * --pred` reads). A photo is aligned first: each face k gets the same outputs as NAME.face<k>.*, and
- * the reconstructions are warped back and Poisson-blended into NAME.recon.png at the photo's size.
+ * --pred` reads). A photo goes through hd_decompose_photo_maps: each face k gets the same outputs as
+ * NAME.face<k>.*, the reconstructions blended into NAME.recon.png, and the full-resolution maps
+ * in the photo's frame NAME.photo.*.
  * decompose_textures is the texture-in, texture-out core; everything else is file handling. One
  * unreadable image (or a photo without a face) is reported and skipped; the exit status is 1 at the
  * end if any failed. */
@@ -141,60 +142,79 @@ static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd
     return st;
 }
 
-/* One photo: aligns it, decomposes every face (outputs out_dir/name.face<k>.*, the face's mask
- * resized to the model's size for the normals) and blends the reconstructions back into a copy of
- * the photo, written as out_dir/name.recon.png. *nfaces gets the faces written. */
+/* The full-resolution maps of a photo in its own frame: NAME.photo.albedo.png (8 bit),
+ * NAME.photo.shading.png (16 bit, s / 2) and .pfm, NAME.photo.normal.png (16 bit, 0 outside the
+ * faces), NAME.photo.mask.png (8 bit). */
+static hd_status write_photo_maps(const job *j, const hd_photo_maps *m)
+{
+    static const char *const suffix[] = {".photo.albedo.png", ".photo.shading.png", ".photo.shading.pfm",
+                                         ".photo.normal.png", ".photo.mask.png"};
+    enum { N_OUT = 5 };
+    char *path[N_OUT] = {0};
+    hd_image half = {0}, rgb = {0};
+    hd_status st = HD_OK;
+    for (int k = 0; k < N_OUT && st == HD_OK; k++)
+        if (!(path[k] = out_path(j, suffix[k]))) st = HD_ERR_NOMEM;
+    if (st == HD_OK) st = hd_image_write_png(path[0], &m->albedo, 8);
+    if (st == HD_OK) st = hd_image_alloc(&half, m->shading.width, m->shading.height, 1);
+    if (st == HD_OK) {
+        size_t n = (size_t)half.width * (size_t)half.height;
+        for (size_t p = 0; p < n; p++) half.data[p] = 0.5f * m->shading.data[p];
+        st = hd_image_write_png(path[1], &half, 16);
+    }
+    if (st == HD_OK) st = hd_image_write_pfm(path[2], &m->shading);
+    if (st == HD_OK) st = hd_normal_encode(&m->normal, &m->mask, &rgb);
+    if (st == HD_OK) st = hd_image_write_png(path[3], &rgb, 16);
+    if (st == HD_OK) st = hd_image_write_png(path[4], &m->mask, 8);
+    for (int k = 0; k < N_OUT; k++) free(path[k]);
+    hd_image_free(&half);
+    hd_image_free(&rgb);
+    return st;
+}
+
+/* One photo: hd_decompose_photo_maps, then the outputs of each face k as out_dir/name.face<k>.* (the
+ * face's mask resized to the model's size for the normals), the photo with the reconstructions
+ * blended in as out_dir/name.recon.png, and the full-resolution maps. *nfaces gets the faces. */
 static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job *j, int *nfaces)
 {
     *nfaces = 0;
     hd_image photo = {0};
-    hd_aligned_face *faces = NULL;
-    int n = 0;
+    hd_photo_maps m;
     hd_status st = hd_image_read_as(j->image, 3, &photo);
     if (st != HD_OK) return st;
-    st = hd_photo_faces(aligner, model, &photo, &faces, &n);
-    if (st != HD_OK) {
-        hd_image_free(&photo);
+    st = hd_decompose_photo_maps(model, aligner, &photo, &m);
+    hd_image_free(&photo);
+    if (st != HD_OK)
         return st == HD_ERR_NOTFOUND ? hd_fail(st, "%s: no face found (give --aligned if it is an aligned face texture)",
                                                j->image)
                                      : hd_fail(st, "%s: %s", j->image, hd_error());
-    }
     const int size = hd_model_size(model);
-    hd_image *tex = calloc((size_t)n, sizeof *tex);
-    hd_decomposition *d = calloc((size_t)n, sizeof *d);
-    hd_sheet *sheets = calloc((size_t)n, sizeof *sheets);
-    if (!tex || !d || !sheets) st = hd_fail(HD_ERR_NOMEM, "out of memory");
-    for (int k = 0; k < n && st == HD_OK; k++) tex[k] = faces[k].texture; /* borrowed */
-    if (st == HD_OK) st = decompose_textures(model, tex, n, d, sheets);
-    int decomposed = st == HD_OK;
-    for (int k = 0; k < n && st == HD_OK; k++) {
+    for (int k = 0; k < m.nfaces && st == HD_OK; k++) {
         char name[64];
         snprintf(name, sizeof name, ".face%d", k);
         size_t len = strlen(j->name) + strlen(name) + 1;
         job fj = {j->image, j->out_dir, malloc(len)};
         hd_image mask = {0};
+        hd_sheet sheet;
+        memset(&sheet, 0, sizeof sheet);
         if (!fj.name) st = hd_fail(HD_ERR_NOMEM, "out of memory");
         else snprintf(fj.name, len, "%s%s", j->name, name);
-        if (st == HD_OK) st = hd_image_resize(&faces[k].mask, size, size, &mask);
-        if (st == HD_OK) st = write_outputs(&fj, &d[k], &mask, &sheets[k]);
+        if (st == HD_OK) st = hd_image_resize(&m.faces[k].mask, size, size, &mask);
+        if (st == HD_OK) st = hd_sheet_init(&sheet, 1, 5, m.d[k].albedo.width, SHEET_BORDER);
+        if (st == HD_OK) st = hd_sheet_put_decomposition(&sheet, 0, &m.faces[k].texture, &m.d[k]);
+        if (st == HD_OK) st = write_outputs(&fj, &m.d[k], &mask, &sheet);
+        hd_sheet_free(&sheet);
         free(fj.name);
         hd_image_free(&mask);
-        if (st == HD_OK)
-            st = hd_aligner_warp_back_blend(aligner, &faces[k], &d[k].reconstruction, HD_WARP_REPLACE, 0, &photo, NULL);
         if (st == HD_OK) ++*nfaces;
     }
     if (st == HD_OK) {
         char *path = out_path(j, ".recon.png");
-        st = path ? hd_image_write_png(path, &photo, 8) : HD_ERR_NOMEM;
+        st = path ? hd_image_write_png(path, &m.recon, 8) : HD_ERR_NOMEM;
         free(path);
     }
-    for (int k = 0; decomposed && k < n; k++) {
-        hd_sheet_free(&sheets[k]);
-        hd_decomposition_free(&d[k]);
-    }
-    free(tex), free(d), free(sheets);
-    hd_aligned_faces_free(faces, n);
-    hd_image_free(&photo);
+    if (st == HD_OK) st = write_photo_maps(j, &m);
+    hd_photo_maps_free(&m);
     return st;
 }
 
@@ -228,9 +248,11 @@ int cmd_decompose(int argc, char **argv)
         "(input | albedo | shading | normal | reconstruction). A folder input is walked recursively and\n"
         "keeps its layout: DIR/SUB/NAME.png gives OUT/SUB/NAME.* (a docs/spec.md section 5 set: OUT/SUBJECT/NAME.*,\n"
         "what `hdnet eval --pred` reads); @LIST is a file of paths. A photo NAME is aligned first: face k\n"
-        "gets the same files as NAME.face<k>.*, and NAME.recon.png is the photo with each face's\n"
-        "reconstruction warped back and Poisson-blended in. An unreadable image, or a photo without a face,\n"
-        "is reported and skipped; the exit status is then 1, after every other image is written.",
+        "gets the same files as NAME.face<k>.*, NAME.recon.png is the photo with each face's\n"
+        "reconstruction warped back and Poisson-blended in, and NAME.photo.{albedo,shading,normal,mask}.png\n"
+        "(and NAME.photo.shading.pfm) are the maps warped back into the photo's frame at its full size.\n"
+        "An unreadable image, or a photo without a face, is reported and skipped; the exit status is then\n"
+        "1, after every other image is written.",
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;

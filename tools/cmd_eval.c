@@ -1,9 +1,13 @@
 /* cmd_eval.c: `hdnet eval`: the paper's metrics (SPEC section 7) of a model, or of predictions
  * written by any system in `hdnet decompose`'s layout, on a set with ground truth, with the
- * baselines under it; a table on the terminal and the same in JSON. */
+ * baselines under it; with --photos, relighting measured on folders of real photos (issue 12's
+ * chroma, detail, glow, seam, self, light); a table on the terminal and the same in JSON. */
 #include <stdio.h>
 #include <stdlib.h>
+#include <math.h>
+#include <string.h>
 #include "cli.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("eval", cmd_eval, "score a model or predictions on a set with ground truth (the paper's metrics)")
 
@@ -41,21 +45,129 @@ static void print_table(const hd_eval_report *r)
     }
 }
 
+/* The targets of issue 12 (docs/usage.md, "Measuring relighting"), as text. */
+static const char *const PHOTO_TARGETS[HD_PHOTO_METRICS] = {"<= 10", ">= 0.95", "0.9..1.1", "<= 1.5",
+                                                           "<= 0.01", "<= 0.05", "0.97..1.03"};
+
+static int print_photo_table(const hd_photo_eval *ev, const char *rule)
+{
+    int held = 0;
+    for (int i = 0; i < ev->count; i++) held += ev->rows[i].heldout;
+    printf("%d photos (%d held out, %d skipped), rule %s; medians over photos\n\n", ev->count, held, ev->skipped, rule);
+    printf("%-8s %-10s %9s %9s %9s   %s\n", "metric", "target", "all", "tuning", "held-out", "worst photo (all)");
+    for (int m = 0; m < HD_PHOTO_METRICS; m++) {
+        double med[3];
+        int worst[3];
+        for (int g = 0; g < 3; g++)
+            if (hd_photo_eval_summary(ev, g, m, &med[g], &worst[g]) != HD_OK) return cli_report("eval");
+        printf("%-8s %-10s", hd_photo_metric_name(m), PHOTO_TARGETS[m]);
+        for (int g = 0; g < 3; g++) {
+            if (isfinite(med[g])) printf(" %9.4f", med[g]);
+            else printf(" %9s", "-");
+        }
+        if (worst[0] >= 0) printf("   %s %.4f", ev->rows[worst[0]].name, ev->rows[worst[0]].v[m]);
+        printf("\n");
+    }
+    return CLI_EXIT_OK;
+}
+
+/* --sheets: the before / after sheet of every photo of DATA as OUT/PERSON-NAME.png. */
+static int photo_sheets(const char *data, const char *model_path, const char *out)
+{
+    hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
+    hd_dataset ds;
+    memset(&ds, 0, sizeof ds);
+    int rc = CLI_EXIT_OK;
+    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK ||
+        hd_dataset_scan(data, &ds, warn) != HD_OK || hd_mkdirs(out) != HD_OK) {
+        rc = cli_report("eval");
+        goto done;
+    }
+    for (int i = 0; i < ds.count && rc == CLI_EXIT_OK; i++) {
+        hd_image photo = {0}, sheet = {0};
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s-%s.png", out, ds.samples[i].subject, ds.samples[i].name);
+        if (hd_image_read_as(ds.samples[i].image, 3, &photo) != HD_OK ||
+            hd_relight_sheet(model, aligner, &photo, &sheet) != HD_OK || hd_image_write_png(path, &sheet, 8) != HD_OK)
+            rc = cli_report("eval");
+        else
+            printf("%s\n", path);
+        hd_image_free(&photo);
+        hd_image_free(&sheet);
+    }
+done:
+    hd_dataset_free(&ds);
+    hd_model_free(model);
+    hd_aligner_free(aligner);
+    return rc;
+}
+
+static int photo_eval(const char *data, const char *model_path, const char *rule_name, const char *heldout, int limit,
+                      const char *json)
+{
+    hd_relight_rule rule = strcmp(rule_name, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO;
+    hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
+    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
+        hd_model_free(model);
+        return cli_report("eval");
+    }
+    hd_photo_eval ev;
+    hd_status st = hd_photo_eval_run(data, model, aligner, rule, heldout, limit, &ev, warn);
+    hd_model_free(model);
+    hd_aligner_free(aligner);
+    if (st != HD_OK) return cli_report("eval");
+    int rc = print_photo_table(&ev, rule_name);
+    if (rc == CLI_EXIT_OK && json && hd_photo_eval_write_json(json, &ev, rule_name) != HD_OK) rc = cli_report("eval");
+    hd_photo_eval_free(&ev);
+    return rc;
+}
+
+static int pair_eval(const char *data, const char *model_path, const char *json)
+{
+    hd_model *model = NULL;
+    if (hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
+    hd_pair_report rep;
+    hd_status st = hd_pair_eval_run(data, model, &rep, warn);
+    hd_model_free(model);
+    if (st != HD_OK) return cli_report("eval");
+    printf("%ld pairs (%ld skipped): image i relit under the true light of image j, against image j\n\n", rep.pairs,
+           rep.skipped);
+    printf("%-28s %8s %8s %8s %8s\n", "method", "MAE", "RMSE", "PSNR dB", "SSIM");
+    for (int k = 0; k < HD_PAIR_ROWS; k++)
+        printf("%-28s %8.4f %8.4f %8.2f %8.4f\n", rep.rows[k].name, rep.rows[k].mae, rep.rows[k].rmse, rep.rows[k].psnr,
+               rep.rows[k].ssim);
+    if (json && hd_pair_report_write_json(json, &rep) != HD_OK) return cli_report("eval");
+    return CLI_EXIT_OK;
+}
+
 int cmd_eval(int argc, char **argv)
 {
-    const char *model_path = NULL, *pred = NULL, *json = NULL;
-    int threads = 0, quiet = 0;
+    const char *model_path = NULL, *pred = NULL, *json = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
+    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0;
     const cli_opt opts[] = {
         {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
          "score this model (safetensors) on the set's images (default: the shipped hdnet-synth model)"},
         {"pred", 0, CLI_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
         {"json", 0, CLI_OPT_STRING, &json, "OUT", "also write the table as JSON to OUT"},
+        {"photos", 0, CLI_OPT_FLAG, &photos, NULL,
+         "DATA is a folder of people (one folder each) of real photos: measure relighting (docs/usage.md)"},
+        {"pairs", 0, CLI_OPT_FLAG, &pairs, NULL,
+         "DATA is a paired synthetic set: relight image i under the true light of image j, against j"},
+        {"rule", 0, CLI_OPT_STRING, &rule, "ratio|paper", "with --photos: the relighting rule (default ratio)"},
+        {"heldout", 0, CLI_OPT_STRING, &heldout, "IDS.txt", "with --photos: the held-out people, reported apart"},
+        {"limit", 0, CLI_OPT_INT, &limit, "N", "with --photos: only the first N people"},
+        {"sheets", 0, CLI_OPT_STRING, &sheets, "OUT",
+         "with --photos: instead of scores, a before / after sheet per photo into folder OUT"},
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "eval", "DATA [-m MODEL | --pred DIR] [--json OUT]",
+        "eval",
+        "DATA [-m MODEL | --pred DIR] [--json OUT] | DATA --photos [-m MODEL] [--rule R] [--heldout IDS.txt] "
+        "| DATA --pairs [-m MODEL]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
@@ -63,7 +175,13 @@ int cmd_eval(int argc, char **argv)
         "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights).\n"
         "Baselines under it: the coarse normals (NAME.normal.png); the least-squares light of the true\n"
         "shading on the coarse normals; the per-image mean colour as albedo. Without -m or --pred the\n"
-        "shipped model is scored.",
+        "shipped model is scored.\n"
+        "With --photos, DATA holds one folder per person of real photographs: each is relit under the\n"
+        "seven presets and its own light, and scored without ground truth (chroma, detail, glow, seam,\n"
+        "self, light, lum; docs/usage.md, \"Measuring relighting\"): medians, tuning and held-out\n"
+        "apart, and the worst photo of each. With --pairs, DATA is an `hdnet synth` set: image i of a\n"
+        "subject relit under the true light of its next image j, against j (MAE, RMSE, PSNR, SSIM),\n"
+        "beside the input unchanged, the exact decomposition and the paper's rule.",
         opts, 1, 1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -72,6 +190,21 @@ int cmd_eval(int argc, char **argv)
     free(pos);
     if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
     if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
+    if (photos && pairs) return cli_usage_error(&spec, "--photos and --pairs exclude each other");
+    if (pairs) {
+        if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
+        return pair_eval(data, model_path, json);
+    }
+    if (photos) {
+        if (pred) return cli_usage_error(&spec, "--photos relights with a model: --pred does not go with it");
+        if (strcmp(rule, "ratio") != 0 && strcmp(rule, "paper") != 0)
+            return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
+        if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
+        if (sheets) return photo_sheets(data, model_path, sheets);
+        return photo_eval(data, model_path, rule, heldout, limit, json);
+    }
+    if (heldout || limit || sheets || strcmp(rule, "ratio") != 0)
+        return cli_usage_error(&spec, "--rule, --heldout, --limit and --sheets go with --photos");
     hd_model *model = NULL;
     if (!pred && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
     hd_eval_report rep;

@@ -1,6 +1,7 @@
-/* cmd_light.c: `hdnet light`: make a light file from a direction or a preset, show a light file on
- * a sphere, or draw all presets side by side (docs/conventions.md explains the direction
- * convention and the presets; docs/img/presets.png is made with `hdnet light --presets`). */
+/* cmd_light.c: `hdnet light`: make a light file from a direction (with a colour), a preset or an
+ * environment map, show a light file (grey or RGB) on a sphere, or draw all presets side by side
+ * (docs/conventions.md explains the direction convention and the presets; docs/img/presets.png is
+ * made with `hdnet light --presets`). */
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -9,10 +10,10 @@
 CLI_COMMAND("light", cmd_light, "make a light file (direction or preset) or show one on a sphere")
 
 /* Writes the sphere picture of light to path (8-bit PNG). */
-static int write_sphere(const float light[HD_SH_COEFFS], int size, const char *path)
+static int write_sphere(const hd_light_rgb *light, int size, const char *path)
 {
     hd_image sphere = {0};
-    if (hd_light_sphere(light, size, &sphere) != HD_OK || hd_image_write_png(path, &sphere, 8) != HD_OK) {
+    if (hd_light_rgb_sphere(light, size, &sphere) != HD_OK || hd_image_write_png(path, &sphere, 8) != HD_OK) {
         hd_image_free(&sphere);
         return cli_report("light");
     }
@@ -45,10 +46,10 @@ static int write_presets(int size, const char *path)
 
 int cmd_light(int argc, char **argv)
 {
-    cli_opt_floats dir = {.max = 2};
+    cli_opt_floats dir = {.max = 2}, colour = {.max = 3};
     int preset = INT_MIN, size = 256, presets = 0, quiet = 0;
-    float intensity = NAN, ambient = NAN;
-    const char *show = NULL, *out = NULL, *preview = NULL;
+    float intensity = NAN, ambient = NAN, rotate = 0.0f;
+    const char *show = NULL, *out = NULL, *preview = NULL, *env = NULL;
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "strength of the directional light (default %g)",
              (double)HD_LIGHT_DEFAULT_INTENSITY);
@@ -59,6 +60,9 @@ int cmd_light(int argc, char **argv)
          "light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
         {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
         {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
+        {"colour", 0, CLI_OPT_FLOATS, &colour, "R,G,B", "with --dir: the light's colour (linear factors; an RGB light file)"},
+        {"env", 0, CLI_OPT_STRING, &env, "MAP.pfm", "the light of an equirectangular environment map (RGB light file)"},
+        {"rotate", 0, CLI_OPT_FLOAT, &rotate, "DEG", "with --env: turn the map about the vertical axis (default 0)"},
         {"preset", 0, CLI_OPT_INT, &preset, "K", "built-in light K in 0..6 (a light circling the view axis)"},
         {"presets", 0, CLI_OPT_FLAG, &presets, NULL, "draw all presets side by side (0 on the left) into -o"},
         {"show", 0, CLI_OPT_STRING, &show, "LIGHT.txt", "draw this light file on a sphere into -o"},
@@ -70,20 +74,26 @@ int cmd_light(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "light",
-        "(--dir AZ,EL [--intensity I] [--ambient A] | --preset K) -o light.txt [--preview sphere.png]\n"
+        "(--dir AZ,EL [--intensity I] [--ambient A] [--colour R,G,B] | --preset K | --env MAP [--rotate DEG])\n"
+        "       -o light.txt [--preview sphere.png]\n"
         "       hdnet light --show light.txt -o sphere.png [--size N]\n"
         "       hdnet light --presets -o presets.png [--size N]",
         "Writes a light file of 9 spherical-harmonics coefficients (DPR's order and scale) for a\n"
         "distant light plus ambient, or for a built-in preset; or draws a light file on a unit sphere\n"
-        "seen from the front (shown as shading/2, so shading up to 2 is not clipped).",
+        "seen from the front (shown as shading/2, so shading up to 2 is not clipped). A coloured light\n"
+        "(--colour, --env) is written as 27 numbers: red's 9, green's, blue's (docs/formats.md).",
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
 
-    const int modes = (dir.count > 0) + (preset != INT_MIN) + (show != NULL) + presets;
-    if (modes != 1) return cli_usage_error(&spec, "give exactly one of --dir, --preset, --show and --presets");
+    const int modes = (dir.count > 0) + (preset != INT_MIN) + (show != NULL) + presets + (env != NULL);
+    if (modes != 1) return cli_usage_error(&spec, "give exactly one of --dir, --preset, --env, --show and --presets");
+    if (colour.count && (dir.count == 0 || colour.count != 3)) return cli_usage_error(&spec, "--colour wants R,G,B and goes with --dir");
+    for (int c = 0; c < colour.count; c++)
+        if (!(colour.v[c] >= 0 && isfinite(colour.v[c]))) return cli_usage_error(&spec, "--colour factors are >= 0");
+    if (rotate != 0.0f && !env) return cli_usage_error(&spec, "--rotate goes with --env");
     if (!out) return cli_usage_error(&spec, "-o is required");
     if (size < 1 || size > 4096) return cli_usage_error(&spec, "--size must be in 1..4096, got %d", size);
     if (dir.count == 0 && (!isnan(intensity) || !isnan(ambient)))
@@ -96,10 +106,10 @@ int cmd_light(int argc, char **argv)
         return rc;
     }
 
-    float light[HD_SH_COEFFS];
+    hd_light_rgb light;
     if (show) {
-        if (hd_light_read(show, light) != HD_OK) return cli_report("light");
-        int rc = write_sphere(light, size, out);
+        if (hd_light_read_rgb(show, &light) != HD_OK) return cli_report("light");
+        int rc = write_sphere(&light, size, out);
         if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", out);
         return rc;
     }
@@ -111,16 +121,25 @@ int cmd_light(int argc, char **argv)
         if (isnan(ambient)) ambient = HD_LIGHT_DEFAULT_AMBIENT;
         if (intensity < 0.0f || ambient < 0.0f)
             return cli_usage_error(&spec, "--intensity and --ambient must not be negative");
-        hd_light_from_direction(dir.v[0], dir.v[1], intensity, ambient, light);
+        const float white[3] = {1, 1, 1};
+        hd_light_rgb_from_direction(dir.v[0], dir.v[1], intensity, ambient, colour.count ? colour.v : white, &light);
+    } else if (env) {
+        hd_image map = {0};
+        hd_status st = hd_image_read_as(env, 3, &map);
+        if (st == HD_OK) st = hd_light_from_envmap(&map, rotate, &light);
+        hd_image_free(&map);
+        if (st != HD_OK) return cli_report("light");
     } else {
         if (preset < 0 || preset >= HD_LIGHT_PRESETS)
             return cli_usage_error(&spec, "--preset must be in 0..%d, got %d", HD_LIGHT_PRESETS - 1, preset);
-        if (hd_light_preset(preset, light) != HD_OK) return cli_report("light");
+        float grey[HD_SH_COEFFS];
+        if (hd_light_preset(preset, grey) != HD_OK) return cli_report("light");
+        hd_light_rgb_from_grey(grey, &light);
     }
-    if (hd_light_write(out, light) != HD_OK) return cli_report("light");
+    if (hd_light_write_rgb(out, &light) != HD_OK) return cli_report("light");
     if (!quiet) printf("wrote %s\n", out);
     if (preview) {
-        int rc = write_sphere(light, size, preview);
+        int rc = write_sphere(&light, size, preview);
         if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", preview);
         return rc;
     }

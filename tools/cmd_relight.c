@@ -1,9 +1,8 @@
 /* cmd_relight.c: `hdnet relight`: a photo (every face in it) or an aligned face texture under a new
- * light (a light file, a built-in preset, all seven presets, or a direction), by the paper's rule
- * relit = (I / S) x s(N, l) (docs/usage.md). relight_texture is the texture-in, texture-out core;
- * hd_relight_photo wraps the same steps for photos (align, relight each face, warp back, Poisson
- * blend); relight_one is the per-photo step the batch loop (batch.c) runs over every input;
- * everything else here is file handling. */
+ * light (a light file of 9 or 27 numbers, a built-in preset, all seven presets, a direction with
+ * an optional colour, or an environment map), by the rule of docs/usage.md. hd_apply_photo and
+ * hd_apply_texture (src/apply/apply.c) do the work; relight_one is the per-photo step the batch
+ * loop (batch.c) runs over every input; everything else here is options and files. */
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -14,27 +13,6 @@
 #include "video_cli.h"
 
 CLI_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
-
-/* The core: decomposes tex once and relights it under each of count lights (relit[count]); delit
- * (may be NULL) receives the albedo under flat light. */
-static hd_status relight_texture(hd_model *model, const hd_image *tex, const hd_image *mask,
-                                 const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness,
-                                 hd_image *relit, hd_image *delit)
-{
-    hd_decomposition d;
-    memset(&d, 0, sizeof d);
-    for (int i = 0; i < count; i++) memset(&relit[i], 0, sizeof relit[i]);
-    if (delit) memset(delit, 0, sizeof *delit);
-    hd_status st = hd_model_decompose(model, tex, 1, &d);
-    for (int i = 0; i < count && st == HD_OK; i++) st = hd_relight(tex, &d, mask, lights[i], brightness, &relit[i]);
-    if (st == HD_OK && delit) st = hd_delight(tex, &d, mask, delit);
-    hd_decomposition_free(&d);
-    if (st != HD_OK) {
-        for (int i = 0; i < count; i++) hd_image_free(&relit[i]);
-        if (delit) hd_image_free(delit);
-    }
-    return st;
-}
 
 /* Sheet: input | delit | relit under each light. */
 static hd_status write_sheet(const char *path, const hd_image *input, const hd_image *delit, const hd_image *relit,
@@ -54,9 +32,8 @@ static hd_status write_sheet(const char *path, const hd_image *input, const hd_i
 
 /* What every photo of one run shares: the lights, the model and aligner (loaded once). */
 typedef struct relight_run {
-    const float (*lights)[HD_SH_COEFFS];
-    int count, all, aligned, noted;
-    hd_brightness brightness;
+    hd_apply_request request;
+    int all, aligned, noted;
     const char *mask_path, *sheet_path;
     float min_score;
     hd_model *model;
@@ -75,8 +52,8 @@ static hd_status write_relit(const relight_run *run, const cli_input *in, const 
     if (!path) return HD_ERR_NOMEM;
     hd_status st = hd_image_write_picture(path, relit);
     if (st == HD_OK) {
-        if (run->all && run->count > 1)
-            snprintf(r->wrote, sizeof r->wrote, "%s .. preset%d.png", path, run->count - 1);
+        if (run->all && run->request.count > 1)
+            snprintf(r->wrote, sizeof r->wrote, "%s .. preset%d.png", path, run->request.count - 1);
         else if (i == 0)
             snprintf(r->wrote, sizeof r->wrote, "%s", path);
     }
@@ -88,9 +65,9 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
 {
     relight_run *run = ctx;
     const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
-    hd_image tex = {0}, mask = {0}, delit = {0};
-    hd_image relit[HD_LIGHT_PRESETS];
-    memset(relit, 0, sizeof relit);
+    hd_image tex = {0}, mask = {0};
+    hd_apply_result res;
+    memset(&res, 0, sizeof res);
     char *mask_source = NULL;
     hd_status st = hd_image_read_as(in->path, 3, &tex);
     if (st == HD_OK && photo && !run->aligner) {
@@ -99,20 +76,17 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
     }
     if (st == HD_OK && photo && run->mask_path && !run->noted++) cli_note_mask("relight", 1, run->mask_path, NULL);
     if (st == HD_OK && photo) {
-        st = hd_relight_photo(run->model, run->aligner, &tex, run->lights, run->count, run->brightness, relit,
-                              run->sheet_path ? &delit : NULL, &r->faces);
+        st = hd_apply_photo(run->model, run->aligner, &tex, &run->request, &res);
+        r->faces = res.nfaces;
     } else if (st == HD_OK) {
         st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
         if (st == HD_OK) cli_note_mask("relight", 0, run->mask_path, mask_source);
-        if (st == HD_OK)
-            st = relight_texture(run->model, &tex, &mask, run->lights, run->count, run->brightness, relit,
-                                 run->sheet_path ? &delit : NULL);
+        if (st == HD_OK) st = hd_apply_texture(run->model, &tex, &mask, &run->request, &res);
         r->faces = 1;
     }
-    for (int i = 0; i < run->count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &relit[i], r);
-    if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &delit, relit, run->count);
-    for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_image_free(&relit[i]);
-    hd_image_free(&delit);
+    for (int i = 0; i < res.count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &res.relit[i], r);
+    if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &res.delit, res.relit, res.count);
+    hd_apply_result_free(&res);
     hd_image_free(&tex);
     hd_image_free(&mask);
     free(mask_source);
@@ -122,9 +96,9 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
 int cmd_relight(int argc, char **argv)
 {
     const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
-    const char *sheet_path = NULL;
-    cli_opt_floats dir = {.max = 2};
-    float intensity = NAN, ambient = NAN, min_score = cli_min_score_default();
+    const char *sheet_path = NULL, *env_path = NULL;
+    cli_opt_floats dir = {.max = 2}, colour = {.max = 3};
+    float intensity = NAN, ambient = NAN, rotate = 0.0f, min_score = cli_min_score_default();
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
     hd_cli_clip clip = {0};
     static char intensity_help[96], ambient_help[96];
@@ -134,13 +108,17 @@ int cmd_relight(int argc, char **argv)
              (double)HD_LIGHT_DEFAULT_AMBIENT);
     const cli_opt opts[] = {
         CLI_OPT_MODEL_ROW(model_path),
-        {"light", 0, CLI_OPT_STRING, &light_path, "L.txt", "target light file (9 SH coefficients, DPR order)"},
+        {"light", 0, CLI_OPT_STRING, &light_path, "L.txt",
+         "target light file (9 SH coefficients, DPR order; 27 for a coloured light, docs/formats.md)"},
         {"preset", 0, CLI_OPT_STRING, &preset, "K|all",
          "built-in light K in 0..6; 'all' writes all seven, -o is then a folder"},
         {"dir", 0, CLI_OPT_FLOATS, &dir, "AZ,EL",
          "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
         {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
         {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
+        {"colour", 0, CLI_OPT_FLOATS, &colour, "R,G,B", "with --dir: the light's colour (linear factors, default 1,1,1)"},
+        {"env", 0, CLI_OPT_STRING, &env_path, "MAP.pfm", "the light of an equirectangular environment map (PFM, PNG)"},
+        {"rotate", 0, CLI_OPT_FLOAT, &rotate, "DEG", "with --env: turn the map about the vertical axis (default 0)"},
         {"output", 'o', CLI_OPT_STRING, &out, "OUT",
          "one input: the relit image (8-bit PNG, or .pfm float32); many inputs, a folder or --preset all: "
          "the output folder (OUT/NAME.relit.png, OUT/NAME.preset<K>.png)"},
@@ -158,12 +136,12 @@ int cmd_relight(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "relight",
-        "IMG|DIR|@LIST ... [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A]) "
-        "-o OUT [--aligned]",
-        "Relights every face of a photo: each face is found, unwarped into the aligned texture space,\n"
-        "relit there (the final albedo I / S, S the predicted shading, times the shading of the target\n"
-        "light on the predicted normals), warped back and Poisson-blended into the photo, so everything\n"
-        "outside the faces stays as it was. With --aligned (or a NAME.mask.png / NAME.normal.png beside\n"
+        "IMG|DIR|@LIST ... [-m MODEL] (--light L.txt | --preset K|all | --dir AZ,EL [--intensity I] [--ambient A] "
+        "[--colour R,G,B] | --env MAP [--rotate DEG]) -o OUT [--aligned]",
+        "Relights every face of a photo: each face is found and decomposed in the aligned texture space,\n"
+        "and the photo is multiplied by the change of shading s(N, l_target) / s(N, l_face) on the\n"
+        "predicted normals (the eyes, mouth and brows following the skin around them), faded to nothing\n"
+        "at the face's edge, so everything outside the faces stays as it was (docs/usage.md). With --aligned (or a NAME.mask.png / NAME.normal.png beside\n"
         "IMG) IMG is an aligned face texture (docs/spec.md section 2), relit directly; masked-out pixels keep the\n"
         "input. The output has the input's size; an OUT ending in .pfm is written as exact float32 PFM.\n"
         "Many inputs (files, folders walked recursively, @LIST files of paths) share one model load: OUT\n"
@@ -176,13 +154,27 @@ int cmd_relight(int argc, char **argv)
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     cli_inputs in = {0};
     relight_run run = {0};
-    float lights[HD_LIGHT_PRESETS][HD_SH_COEFFS];
+    hd_light_rgb lights[HD_LIGHT_PRESETS];
+    float l[HD_SH_COEFFS];
     int rc = CLI_EXIT_USAGE;
 
-    const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0);
+    const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0) + (env_path != NULL);
     if ((code = cli_opts_common(&spec, threads, min_score))) goto done;
     if (modes != 1) {
-        cli_usage_error(&spec, "give exactly one of --light, --preset and --dir");
+        cli_usage_error(&spec, "give exactly one of --light, --preset, --dir and --env");
+        goto done;
+    }
+    if (colour.count && (dir.count == 0 || colour.count != 3)) {
+        cli_usage_error(&spec, "--colour wants R,G,B and goes with --dir");
+        goto done;
+    }
+    for (int c = 0; c < colour.count; c++)
+        if (!(colour.v[c] >= 0 && isfinite(colour.v[c]))) {
+            cli_usage_error(&spec, "--colour factors are >= 0");
+            goto done;
+        }
+    if (rotate != 0.0f && !env_path) {
+        cli_usage_error(&spec, "--rotate goes with --env");
         goto done;
     }
     if (dir.count == 1) {
@@ -201,30 +193,43 @@ int cmd_relight(int argc, char **argv)
         cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
         goto done;
     }
-    run.count = 1;
+    run.request.count = 1;
     if (preset) {
         char *end = NULL;
         long k = strtol(preset, &end, 10);
         if (strcmp(preset, "all") == 0) {
             run.all = 1;
-            run.count = HD_LIGHT_PRESETS;
-            for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, lights[i]);
+            run.request.count = HD_LIGHT_PRESETS;
+            for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
         } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
             cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
             goto done;
         } else {
-            hd_light_preset((int)k, lights[0]);
+            hd_light_preset((int)k, l);
+            hd_light_rgb_from_grey(l, &lights[0]);
         }
     } else if (dir.count) {
-        hd_light_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
-                                isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient, lights[0]);
-    } else if (hd_light_read(light_path, lights[0]) != HD_OK) {
+        const float white[3] = {1, 1, 1};
+        hd_light_rgb_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
+                                    isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient,
+                                    colour.count ? colour.v : white, &lights[0]);
+    } else if (env_path) {
+        hd_image map = {0};
+        hd_status st = hd_image_read_as(env_path, 3, &map);
+        if (st == HD_OK) st = hd_light_from_envmap(&map, rotate, &lights[0]);
+        hd_image_free(&map);
+        if (st != HD_OK) {
+            rc = cli_report("relight");
+            goto done;
+        }
+    } else if (hd_light_read_rgb(light_path, &lights[0]) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
     if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        if (run.all || sheet_path) cli_usage_error(&spec, "a clip takes one light (no --preset all, no --sheet)");
-        else rc = hd_cli_video("relight", pos[0], out, model_path, lights[0], NULL,
+        if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
+            cli_usage_error(&spec, "a clip takes one light, grey (no --preset all, no --sheet, no colour)");
+        else rc = hd_cli_video("relight", pos[0], out, model_path, lights[0].sh[0], NULL,
                                no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
         goto done;
     }
@@ -239,8 +244,10 @@ int cmd_relight(int argc, char **argv)
         goto done;
     }
     rc = CLI_EXIT_FAIL;
-    run.lights = (const float (*)[HD_SH_COEFFS])lights;
-    run.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    run.request.lights = lights;
+    run.request.delight = sheet_path != NULL;
+    run.request.rule = HD_RULE_RATIO;
+    run.request.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
     run.aligned = aligned;
     run.mask_path = mask_path;
     run.sheet_path = sheet_path;

@@ -1,30 +1,38 @@
-/* face.c: relighting with a model, texture in and texture out (decompose, then relight.c). These
- * are the cores of `hdnet relight`, `transfer`, `delight`
- * and `estimate-light`; photo alignment wraps them (photo -> texture -> core -> texture -> photo). */
+/* face.c: the model-level calls of the relighting section of hdnet.h, grey lights, one picture
+ * each: thin requests to the one home, apply.c (texture in, texture out; photo in, photo out). */
+#include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+
+/* Runs q on a texture (photo NULL) or a photo and moves the one picture asked for into out. */
+static hd_status one_picture(hd_model *model, hd_aligner *aligner, const hd_image *image, const hd_image *mask,
+                             const hd_apply_request *q, hd_image *out, int *nfaces)
+{
+    memset(out, 0, sizeof *out);
+    hd_apply_result r;
+    hd_status st = aligner ? hd_apply_photo(model, aligner, image, q, &r) : hd_apply_texture(model, image, mask, q, &r);
+    if (st != HD_OK) return st;
+    hd_image *picked = q->delight ? &r.delit : &r.relit[0];
+    *out = *picked;
+    memset(picked, 0, sizeof *picked);
+    if (nfaces) *nfaces = r.nfaces;
+    hd_apply_result_free(&r);
+    return HD_OK;
+}
 
 hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image *mask,
                           const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out)
 {
-    memset(out, 0, sizeof *out);
-    hd_decomposition d;
-    memset(&d, 0, sizeof d);
-    hd_status st = hd_model_decompose(model, image, 1, &d);
-    if (st == HD_OK) st = hd_relight(image, &d, mask, light, brightness, out);
-    hd_decomposition_free(&d);
-    return st;
+    hd_light_rgb l;
+    hd_light_rgb_from_grey(light, &l);
+    hd_apply_request q = {&l, 1, 0, 0, HD_RULE_RATIO, brightness};
+    return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out)
 {
-    memset(out, 0, sizeof *out);
-    hd_decomposition d;
-    memset(&d, 0, sizeof d);
-    hd_status st = hd_model_decompose(model, image, 1, &d);
-    if (st == HD_OK) st = hd_delight(image, &d, mask, out);
-    hd_decomposition_free(&d);
-    return st;
+    hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP};
+    return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS])
@@ -47,4 +55,32 @@ hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_imag
     hd_status st = hd_estimate_light(model, ref, light);
     if (st == HD_OK) st = hd_relight_face(model, image, mask, light, brightness, out);
     return st;
+}
+
+hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                           const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness, hd_image *relit,
+                           hd_image *delit, int *nfaces)
+{
+    for (int i = 0; i < count; i++) memset(&relit[i], 0, sizeof relit[i]);
+    if (delit) memset(delit, 0, sizeof *delit);
+    if (nfaces) *nfaces = 0;
+    hd_light_rgb *l = hd_malloc((size_t)(count > 0 ? count : 1) * sizeof *l);
+    if (!l) return HD_ERR_NOMEM;
+    for (int i = 0; i < count; i++) hd_light_rgb_from_grey(lights[i], &l[i]);
+    hd_apply_request q = {l, count, delit != NULL, 0, HD_RULE_RATIO, brightness};
+    hd_apply_result r;
+    hd_status st = hd_apply_photo(model, aligner, photo, &q, &r);
+    free(l);
+    if (st != HD_OK) return st;
+    for (int i = 0; i < count; i++) {
+        relit[i] = r.relit[i];
+        memset(&r.relit[i], 0, sizeof r.relit[i]);
+    }
+    if (delit) {
+        *delit = r.delit;
+        memset(&r.delit, 0, sizeof r.delit);
+    }
+    if (nfaces) *nfaces = r.nfaces;
+    hd_apply_result_free(&r);
+    return HD_OK;
 }

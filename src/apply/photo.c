@@ -1,9 +1,7 @@
-/* photo.c: relighting whole photographs (docs/usage.md, "Photos and aligned textures"). A photo is
- * aligned (every face detected, its landmarks found and the face unwarped into the aligned texture
- * space), each face texture goes through the texture-in, texture-out cores of face.c / relight.c,
- * and each result is warped back with the mesh and Poisson-blended into a copy of the photo at
- * full resolution (hd_warp_back_blend, HD_WARP_CHANGE: only the change the model makes is added,
- * so the photo keeps its own detail and everything outside the face stays as it was). */
+/* photo.c: photos and aligned textures (docs/usage.md, "Photos and aligned textures"): which an
+ * input is (by its companions), the texture size faces are unwarped at, every face of a photo
+ * aligned, and the light of a photo's best face. What is done to the faces is apply.c's. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -30,15 +28,6 @@ int hd_photo_texture_size(const hd_model *model)
     return s > HD_PHOTO_TEXTURE_SIZE ? s : HD_PHOTO_TEXTURE_SIZE;
 }
 
-/* A copy of src into dst (allocated). */
-static hd_status copy_image(const hd_image *src, hd_image *dst)
-{
-    hd_status st = hd_image_alloc(dst, src->width, src->height, src->channels);
-    if (st == HD_OK)
-        memcpy(dst->data, src->data, (size_t)src->width * (size_t)src->height * (size_t)src->channels * sizeof(float));
-    return st;
-}
-
 hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_image *photo, hd_aligned_face **faces,
                          int *count)
 {
@@ -47,49 +36,6 @@ hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_im
     hd_status st = hd_aligner_run(aligner, photo, hd_photo_texture_size(model), faces, count);
     if (st == HD_OK && *count == 0) st = hd_fail(HD_ERR_NOTFOUND, "no face found");
     return st;
-}
-
-hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
-                           const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness, hd_image *relit,
-                           hd_image *delit, int *nfaces)
-{
-    for (int i = 0; i < count; i++) memset(&relit[i], 0, sizeof relit[i]);
-    if (delit) memset(delit, 0, sizeof *delit);
-    if (nfaces) *nfaces = 0;
-    if (!photo || !photo->data || photo->channels != 3)
-        return hd_fail(HD_ERR_ARG, "relight: a photo has 3 channels (has %d)", photo ? photo->channels : 0);
-    hd_aligned_face *faces = NULL;
-    int n = 0;
-    hd_status st = hd_photo_faces(aligner, model, photo, &faces, &n);
-    for (int i = 0; i < count && st == HD_OK; i++) st = copy_image(photo, &relit[i]);
-    if (st == HD_OK && delit) st = copy_image(photo, delit);
-    hd_image tex_out = {0};
-    for (int k = 0; k < n && st == HD_OK; k++) {
-        /* one decomposition per face, then every light: texture in, texture out, photo back */
-        const hd_aligned_face *f = &faces[k];
-        hd_decomposition d;
-        memset(&d, 0, sizeof d);
-        st = hd_model_decompose(model, &f->texture, 1, &d);
-        for (int i = 0; i < count && st == HD_OK; i++) {
-            st = hd_relight(&f->texture, &d, &f->mask, lights[i], brightness, &tex_out);
-            if (st == HD_OK) st = hd_aligner_warp_back_blend(aligner, f, &tex_out, HD_WARP_CHANGE, 0, &relit[i], NULL);
-            hd_image_free(&tex_out);
-        }
-        if (st == HD_OK && delit) {
-            st = hd_delight(&f->texture, &d, &f->mask, &tex_out);
-            if (st == HD_OK) st = hd_aligner_warp_back_blend(aligner, f, &tex_out, HD_WARP_CHANGE, 0, delit, NULL);
-            hd_image_free(&tex_out);
-        }
-        hd_decomposition_free(&d);
-    }
-    hd_aligned_faces_free(faces, n);
-    if (st != HD_OK) {
-        for (int i = 0; i < count; i++) hd_image_free(&relit[i]);
-        if (delit) hd_image_free(delit);
-        return st;
-    }
-    if (nfaces) *nfaces = n;
-    return HD_OK;
 }
 
 hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
@@ -102,5 +48,79 @@ hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd
     if (st == HD_OK) st = hd_estimate_light(model, &faces[0].texture, light);
     hd_aligned_faces_free(faces, n);
     if (st == HD_OK && nfaces) *nfaces = n;
+    return st;
+}
+
+void hd_photo_maps_free(hd_photo_maps *m)
+{
+    if (!m) return;
+    for (int k = 0; m->d && k < m->nfaces; k++) hd_decomposition_free(&m->d[k]);
+    free(m->d);
+    hd_aligned_faces_free(m->faces, m->nfaces);
+    hd_image_free(&m->recon);
+    hd_image_free(&m->albedo);
+    hd_image_free(&m->shading);
+    hd_image_free(&m->normal);
+    hd_image_free(&m->mask);
+    memset(m, 0, sizeof *m);
+}
+
+/* Paints texture map tex of face f into the photo-frame map out where it lands (renormalising
+ * normals); marks mask. */
+static hd_status paint_map(const hd_aligned_face *f, const hd_image *tex, int normals, hd_image *out, hd_image *mask)
+{
+    hd_image warped = {0}, coverage = {0};
+    hd_status st = hd_warp_back(f, tex, NULL, &warped, &coverage);
+    if (st != HD_OK) return st;
+    const size_t P = (size_t)out->width * (size_t)out->height;
+    for (size_t p = 0; p < P; p++) {
+        if (coverage.data[p] <= 0.5f) continue;
+        float len = 1.0f;
+        if (normals) {
+            float x = warped.data[p], y = warped.data[P + p], z = warped.data[2 * P + p];
+            len = sqrtf(x * x + y * y + z * z);
+            if (!(len > 1e-6f)) len = 1.0f;
+        }
+        for (int c = 0; c < out->channels; c++) out->data[c * P + p] = warped.data[c * P + p] / len;
+        if (mask) mask->data[p] = 1.0f;
+    }
+    hd_image_free(&warped);
+    hd_image_free(&coverage);
+    return HD_OK;
+}
+
+hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_photo_maps *m)
+{
+    memset(m, 0, sizeof *m);
+    if (!photo || !photo->data || photo->channels != 3)
+        return hd_fail(HD_ERR_ARG, "decompose: a photo has 3 channels (has %d)", photo ? photo->channels : 0);
+    hd_status st = hd_photo_faces(aligner, model, photo, &m->faces, &m->nfaces);
+    if (st != HD_OK) return st;
+    const int W = photo->width, H = photo->height;
+    if (!(m->d = hd_calloc((size_t)m->nfaces, sizeof *m->d))) st = HD_ERR_NOMEM;
+    hd_image *tex = st == HD_OK ? hd_calloc((size_t)m->nfaces, sizeof *tex) : NULL;
+    if (st == HD_OK && !tex) st = HD_ERR_NOMEM;
+    for (int k = 0; st == HD_OK && k < m->nfaces; k++) tex[k] = m->faces[k].texture; /* borrowed */
+    if (st == HD_OK) st = hd_model_decompose(model, tex, m->nfaces, m->d);
+    free(tex);
+    if (st == HD_OK) st = hd_image_alloc(&m->recon, W, H, 3);
+    if (st == HD_OK) memcpy(m->recon.data, photo->data, (size_t)W * H * 3 * sizeof(float));
+    if (st == HD_OK) st = hd_image_alloc(&m->albedo, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&m->shading, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&m->normal, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&m->mask, W, H, 1);
+    /* the worst-scoring face first, so that the best one is painted last and wins */
+    for (int k = m->nfaces - 1; k >= 0 && st == HD_OK; k--) {
+        const hd_aligned_face *f = &m->faces[k];
+        st = paint_map(f, &m->d[k].albedo, 0, &m->albedo, &m->mask);
+        if (st == HD_OK) st = paint_map(f, &m->d[k].shading, 0, &m->shading, NULL);
+        if (st == HD_OK) st = paint_map(f, &m->d[k].normal, 1, &m->normal, NULL);
+    }
+    for (int k = 0; k < m->nfaces && st == HD_OK; k++)
+        st = hd_warp_back_blend(&m->faces[k], &m->d[k].reconstruction, HD_WARP_REPLACE, 0, &m->recon, NULL);
+    if (st != HD_OK) {
+        /* the decompositions exist only if the model ran: free what is there */
+        hd_photo_maps_free(m);
+    }
     return st;
 }

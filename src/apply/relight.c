@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 #include "core/core.h"
+#include "apply/apply.h"
 
 static float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; }
 
@@ -125,8 +126,8 @@ static double brightness_factor(const float *relit, const hd_image *image, const
 }
 
 /* The shared path: light NULL means flat light (s = 1) without brightness matching. */
-static hd_status relight_with(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
-                              const float *light, hd_brightness brightness, hd_image *out)
+hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,
+                           hd_brightness brightness, hd_image *out)
 {
     memset(out, 0, sizeof *out);
     face_maps m;
@@ -173,23 +174,23 @@ done:
 
 hd_status hd_relight_albedo(const hd_image *image, const hd_decomposition *d, hd_image *albedo)
 {
-    return relight_with(image, d, NULL, NULL, HD_BRIGHTNESS_FREE, albedo);
+    return hd_relight_paper(image, d, NULL, NULL, HD_BRIGHTNESS_FREE, albedo);
 }
 
 hd_status hd_relight(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
                      const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out)
 {
     if (!light) return hd_fail(HD_ERR_ARG, "relight: no target light");
-    return relight_with(image, d, mask, light, brightness, out);
+    return hd_relight_paper(image, d, mask, light, brightness, out);
 }
 
 hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_image *mask, hd_image *out)
 {
-    return relight_with(image, d, mask, NULL, HD_BRIGHTNESS_FREE, out);
+    return hd_relight_paper(image, d, mask, NULL, HD_BRIGHTNESS_FREE, out);
 }
 
 hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
                       const hd_decomposition *ref, hd_brightness brightness, hd_image *out)
 {
-    return relight_with(image, d, mask, ref->light, brightness, out);
+    return hd_relight_paper(image, d, mask, ref->light, brightness, out);
 }

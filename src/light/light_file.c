@@ -1,5 +1,6 @@
 /* light_file.c: light files (SPEC section 2): text holding exactly 9 finite numbers separated by
- * white space, in DPR's order (DPR's rotate_light_NN.txt load unchanged). Written one number per
+ * white space, in DPR's order (DPR's rotate_light_NN.txt load unchanged), or 27 for a coloured
+ * light (docs/formats.md). Written one number per
  * line with %.9g (exact for float32), through a temporary file that is renamed. */
 #include <errno.h>
 #include <math.h>
@@ -13,9 +14,10 @@
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
 
-/* Reads 9 numbers; any other content (fewer or more numbers, a word, NaN or infinity, a NUL byte)
- * fails with a reason "PATH:LINE: what is wrong". */
-hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS])
+/* Reads up to max numbers into v (*count of them); any other content (more numbers, a word, NaN or
+ * infinity, a NUL byte) fails with a reason "PATH:LINE: what is wrong"; *end_line_out is the
+ * file's last line. */
+static hd_status read_numbers(const char *path, float *v, int max, int *count_out, int *end_line_out)
 {
     char *data = NULL;
     size_t size = 0;
@@ -26,7 +28,6 @@ hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS])
         return st;
     }
     int line = 1, count = 0;
-    float v[HD_SH_COEFFS];
     size_t i = 0;
     while (i < size) {
         char c = data[i];
@@ -56,8 +57,8 @@ hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS])
         }
         memcpy(tok, data + start, len);
         tok[len] = '\0';
-        if (count == HD_SH_COEFFS) {
-            st = hd_fail(HD_ERR_FORMAT, "%s:%d: more than %d numbers (found '%s')", path, line, HD_SH_COEFFS, tok);
+        if (count == max) {
+            st = hd_fail(HD_ERR_FORMAT, "%s:%d: more than %d numbers (found '%s')", path, line, max, tok);
             free(data);
             return st;
         }
@@ -77,8 +78,18 @@ hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS])
         v[count++] = (float)d;
     }
     /* the last line of the file (a final newline does not start a new one) */
-    int end_line = size > 0 && data[size - 1] == '\n' && line > 1 ? line - 1 : line;
+    *end_line_out = size > 0 && data[size - 1] == '\n' && line > 1 ? line - 1 : line;
+    *count_out = count;
     free(data);
+    return HD_OK;
+}
+
+hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS])
+{
+    float v[HD_SH_COEFFS];
+    int count = 0, end_line = 1;
+    hd_status st = read_numbers(path, v, HD_SH_COEFFS, &count, &end_line);
+    if (st != HD_OK) return st;
     if (count < HD_SH_COEFFS)
         return hd_fail(HD_ERR_FORMAT, "%s:%d: the file ends after %d number%s, a light file holds %d", path,
                        end_line, count, count == 1 ? "" : "s", HD_SH_COEFFS);
@@ -95,5 +106,37 @@ hd_status hd_light_write(const char *path, const float light[HD_SH_COEFFS])
     hd_status st = hd_atomic_open(&af, path);
     if (st != HD_OK) return st;
     for (int k = 0; k < HD_SH_COEFFS; k++) fprintf(af.f, "%.9g\n", (double)light[k]);
+    return hd_atomic_commit(&af);
+}
+
+hd_status hd_light_read_rgb(const char *path, hd_light_rgb *light)
+{
+    float v[3 * HD_SH_COEFFS];
+    int count = 0, end_line = 1;
+    hd_status st = read_numbers(path, v, 3 * HD_SH_COEFFS, &count, &end_line);
+    if (st != HD_OK) return st;
+    if (count == HD_SH_COEFFS) {
+        hd_light_rgb_from_grey(v, light);
+        return HD_OK;
+    }
+    if (count != 3 * HD_SH_COEFFS)
+        return hd_fail(HD_ERR_FORMAT, "%s:%d: the file ends after %d number%s, a light file holds %d (grey) or %d (RGB)",
+                       path, end_line, count, count == 1 ? "" : "s", HD_SH_COEFFS, 3 * HD_SH_COEFFS);
+    for (int c = 0; c < 3; c++) memcpy(light->sh[c], v + c * HD_SH_COEFFS, sizeof light->sh[c]);
+    return HD_OK;
+}
+
+hd_status hd_light_write_rgb(const char *path, const hd_light_rgb *light)
+{
+    if (hd_light_rgb_is_grey(light)) return hd_light_write(path, light->sh[0]);
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < HD_SH_COEFFS; k++)
+            if (!isfinite(light->sh[c][k]))
+                return hd_fail(HD_ERR_NUMERIC, "%s: light coefficient %d of channel %d is not finite", path, k, c);
+    hd_atomic_file af;
+    hd_status st = hd_atomic_open(&af, path);
+    if (st != HD_OK) return st;
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < HD_SH_COEFFS; k++) fprintf(af.f, "%.9g\n", (double)light->sh[c][k]);
     return hd_atomic_commit(&af);
 }

@@ -1,0 +1,267 @@
+/* apply.c: the one place that applies a model to an aligned face texture or to a photo, in memory
+ * (docs/usage.md, "The relighting rule"): decompose each face once, then for every target light
+ * (and the delit face, and the face under its own light when asked) build the rule's log-ratio
+ * field in texture space (rule.c) and put it onto the picture: on a texture directly, feathered
+ * inside the mask; on a photo warped back through the landmark mesh, feathered from the face's
+ * edge in photo pixels, so that outside the face the photo is untouched bit for bit. The old rule
+ * (HD_RULE_PAPER) goes through relight.c and the Poisson blend instead. The hdnet commands are
+ * options and files around these calls. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "apply/apply.h"
+
+/* Feather bands: in a texture, a share of its side; in a photo, a share of the eye distance. */
+#define FEATHER_TEXTURE 0.04f
+#define FEATHER_PHOTO 0.30f
+
+void hd_apply_result_free(hd_apply_result *r)
+{
+    if (!r) return;
+    for (int i = 0; r->relit && i < r->count; i++) hd_image_free(&r->relit[i]);
+    free(r->relit);
+    free(r->face_light);
+    hd_aligned_faces_free(r->faces, r->nfaces);
+    hd_image_free(&r->delit);
+    hd_image_free(&r->self);
+    memset(r, 0, sizeof *r);
+}
+
+
+static hd_status copy_image(const hd_image *src, hd_image *dst)
+{
+    hd_status st = hd_image_alloc(dst, src->width, src->height, src->channels);
+    if (st == HD_OK)
+        memcpy(dst->data, src->data, (size_t)src->width * (size_t)src->height * (size_t)src->channels * sizeof(float));
+    return st;
+}
+
+static hd_status check_request(const hd_apply_request *q, const hd_image *picture)
+{
+    if (!q || q->count < 0 || (q->count > 0 && !q->lights))
+        return hd_fail(HD_ERR_ARG, "relight: the request's lights are missing");
+    if (q->rule != HD_RULE_RATIO && q->rule != HD_RULE_PAPER) return hd_fail(HD_ERR_ARG, "relight: unknown rule %d", (int)q->rule);
+    if (q->rule == HD_RULE_PAPER)
+        for (int i = 0; i < q->count; i++)
+            if (!hd_light_rgb_is_grey(&q->lights[i]))
+                return hd_fail(HD_ERR_ARG, "relight: the paper's rule takes grey lights only (light %d is coloured)", i);
+    if (!picture || !picture->data || picture->channels != 3)
+        return hd_fail(HD_ERR_ARG, "relight: a picture has 3 channels (has %d)", picture ? picture->channels : 0);
+    return HD_OK;
+}
+
+/* Allocates the outputs as copies of the picture. */
+static hd_status result_init(const hd_apply_request *q, const hd_image *picture, hd_apply_result *r)
+{
+    memset(r, 0, sizeof *r);
+    r->relit = hd_calloc(q->count > 0 ? (size_t)q->count : 1, sizeof *r->relit);
+    if (!r->relit) return HD_ERR_NOMEM;
+    r->count = q->count;
+    hd_status st = HD_OK;
+    for (int i = 0; i < q->count && st == HD_OK; i++) st = copy_image(picture, &r->relit[i]);
+    if (st == HD_OK && q->delight) st = copy_image(picture, &r->delit);
+    if (st == HD_OK && q->self) st = copy_image(picture, &r->self);
+    return st;
+}
+
+/* The k-th job of a request: its target light (NULL: flat), brightness, output. k runs over the
+ * lights, then the delit face, then the face under its own light. */
+typedef struct job {
+    const hd_light_rgb *target;
+    hd_light_rgb own;
+    hd_brightness brightness;
+    hd_image *out;
+} job;
+
+static int jobs_of(const hd_apply_request *q, hd_apply_result *r, const float own[HD_SH_COEFFS], job *jobs)
+{
+    int n = 0;
+    for (int i = 0; i < q->count; i++) jobs[n++] = (job){&q->lights[i], {{{0}}}, q->brightness, &r->relit[i]};
+    if (q->delight)
+        jobs[n++] = (job){NULL, {{{0}}}, q->rule == HD_RULE_PAPER ? HD_BRIGHTNESS_FREE : q->brightness, &r->delit};
+    if (q->self) {
+        jobs[n] = (job){NULL, {{{0}}}, q->brightness, &r->self};
+        hd_light_rgb_from_grey(own, &jobs[n].own);
+        jobs[n].target = &jobs[n].own;
+        n++;
+    }
+    return n;
+}
+
+/* One job on a texture (out is the texture's copy): the rule, feathered inside the mask. */
+static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, const hd_image *mask,
+                             const float *feather, hd_relight_rule rule, const job *jb)
+{
+    if (rule == HD_RULE_PAPER) {
+        hd_image out = {0};
+        hd_status st = hd_relight_paper(tex, d, mask, jb->target ? jb->target->sh[0] : NULL, jb->brightness, &out);
+        if (st == HD_OK) {
+            hd_image_free(jb->out);
+            *jb->out = out;
+        }
+        return st;
+    }
+    const int W = tex->width, H = tex->height, side = W > H ? W : H;
+    hd_image field = {0}, sized = {0};
+    hd_status st = hd_ratio_field(d, mask, side, d->light, jb->target, &field);
+    if (st == HD_OK && (W != side || H != side)) {
+        st = hd_image_resize(&field, W, H, &sized);
+        hd_image_free(&field);
+        field = sized;
+    }
+    if (st == HD_OK) st = hd_ratio_apply(&field, feather, jb->brightness, jb->out);
+    hd_image_free(&field);
+    return st;
+}
+
+/* Feather weights of a texture's mask (NULL: all ones), at the texture's size. */
+static hd_status texture_feather(const hd_image *tex, const hd_image *mask, float **weight)
+{
+    const int W = tex->width, H = tex->height;
+    const size_t P = (size_t)W * H;
+    *weight = hd_malloc((P ? P : 1) * sizeof(float));
+    if (!*weight) return HD_ERR_NOMEM;
+    hd_image m = {0};
+    hd_status st = HD_OK;
+    if (mask) st = mask->width == W && mask->height == H ? copy_image(mask, &m) : hd_image_resize(mask, W, H, &m);
+    else if ((st = hd_image_alloc(&m, W, H, 1)) == HD_OK)
+        for (size_t p = 0; p < P; p++) m.data[p] = 1.0f;
+    if (st == HD_OK) st = hd_field_feather(m.data, W, H, FEATHER_TEXTURE * (W > H ? W : H), *weight);
+    /* a soft mask value scales the change too */
+    for (size_t p = 0; st == HD_OK && p < P; p++) {
+        float v = m.data[p] < 0 ? 0 : m.data[p] > 1 ? 1 : m.data[p];
+        (*weight)[p] *= v;
+    }
+    hd_image_free(&m);
+    if (st != HD_OK) {
+        free(*weight);
+        *weight = NULL;
+    }
+    return st;
+}
+
+hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition *d, const hd_image *mask,
+                                 const hd_apply_request *q, hd_apply_result *r)
+{
+    memset(r, 0, sizeof *r);
+    hd_status st = check_request(q, texture);
+    if (st != HD_OK) return st;
+    if (mask && (!mask->data || mask->channels != 1))
+        return hd_fail(HD_ERR_ARG, "relight: a mask has 1 channel (has %d)", mask->channels);
+    if ((st = result_init(q, texture, r)) != HD_OK) {
+        hd_apply_result_free(r);
+        return st;
+    }
+    r->face_light = hd_malloc(sizeof *r->face_light);
+    if (!r->face_light) st = HD_ERR_NOMEM;
+    else memcpy(r->face_light[0], d->light, sizeof d->light);
+    float *feather = NULL;
+    if (st == HD_OK && q->rule == HD_RULE_RATIO) st = texture_feather(texture, mask, &feather);
+    job *jobs = hd_malloc((size_t)(q->count + 2) * sizeof *jobs);
+    if (!jobs && st == HD_OK) st = HD_ERR_NOMEM;
+    int n = st == HD_OK ? jobs_of(q, r, d->light, jobs) : 0;
+    for (int k = 0; k < n && st == HD_OK; k++) st = texture_job(texture, d, mask, feather, q->rule, &jobs[k]);
+    free(jobs);
+    free(feather);
+    if (st != HD_OK) {
+        hd_apply_result_free(r);
+        return st;
+    }
+    r->nfaces = 1;
+    return HD_OK;
+}
+
+hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_image *mask, const hd_apply_request *q,
+                           hd_apply_result *r)
+{
+    memset(r, 0, sizeof *r);
+    hd_status st = check_request(q, texture);
+    if (st != HD_OK) return st;
+    hd_decomposition d;
+    memset(&d, 0, sizeof d);
+    st = hd_model_decompose(model, texture, 1, &d);
+    if (st == HD_OK) st = hd_apply_decomposition(texture, &d, mask, q, r);
+    hd_decomposition_free(&d);
+    return st;
+}
+
+/* Feather weights of a face's warped coverage in the photo. */
+static hd_status photo_feather(const hd_aligned_face *f, const hd_image *coverage, float *weight)
+{
+    float eyes[2][2];
+    hd_face_eye_centres((const float (*)[3])f->landmarks, eyes);
+    float dx = eyes[1][0] - eyes[0][0], dy = eyes[1][1] - eyes[0][1];
+    float band = FEATHER_PHOTO * sqrtf(dx * dx + dy * dy);
+    if (band < 2.0f) band = 2.0f;
+    return hd_field_feather(coverage->data, coverage->width, coverage->height, band, weight);
+}
+
+/* One job on face f of a photo (out is the photo's copy, with earlier faces already changed). */
+static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, const float *feather,
+                           hd_relight_rule rule, const job *jb)
+{
+    hd_image tex_out = {0}, field = {0}, warped = {0}, coverage = {0};
+    hd_status st;
+    if (rule == HD_RULE_PAPER) {
+        st = hd_relight_paper(&f->texture, d, &f->mask, jb->target ? jb->target->sh[0] : NULL, jb->brightness, &tex_out);
+        if (st == HD_OK) st = hd_warp_back_blend(f, &tex_out, HD_WARP_CHANGE, 0, jb->out, NULL);
+        hd_image_free(&tex_out);
+        return st;
+    }
+    st = hd_ratio_field(d, &f->mask, f->texture.width, d->light, jb->target, &field);
+    if (st == HD_OK) st = hd_warp_back(f, &field, NULL, &warped, &coverage);
+    if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out);
+    hd_image_free(&field);
+    hd_image_free(&warped);
+    hd_image_free(&coverage);
+    return st;
+}
+
+hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *q,
+                         hd_apply_result *r)
+{
+    memset(r, 0, sizeof *r);
+    hd_status st = check_request(q, photo);
+    if (st != HD_OK) return st;
+    hd_aligned_face *faces = NULL;
+    int n = 0;
+    if ((st = hd_photo_faces(aligner, model, photo, &faces, &n)) != HD_OK) return st;
+    if ((st = result_init(q, photo, r)) != HD_OK) {
+        hd_aligned_faces_free(faces, n);
+        hd_apply_result_free(r);
+        return st;
+    }
+    r->faces = faces;
+    r->nfaces = n;
+    r->face_light = hd_calloc((size_t)n, sizeof *r->face_light);
+    job *jobs = hd_malloc((size_t)(q->count + 2) * sizeof *jobs);
+    const size_t P = (size_t)photo->width * (size_t)photo->height;
+    float *feather = q->rule == HD_RULE_RATIO ? hd_malloc((P ? P : 1) * sizeof(float)) : NULL;
+    if (!r->face_light || !jobs || (q->rule == HD_RULE_RATIO && !feather)) st = HD_ERR_NOMEM;
+    for (int k = 0; k < n && st == HD_OK; k++) {
+        const hd_aligned_face *f = &faces[k];
+        hd_decomposition d;
+        memset(&d, 0, sizeof d);
+        st = hd_model_decompose(model, &f->texture, 1, &d);
+        if (st == HD_OK) memcpy(r->face_light[k], d.light, sizeof d.light);
+        if (st == HD_OK && feather) {
+            /* the face's region in the photo: where its mask warps to */
+            hd_image warped = {0}, coverage = {0};
+            st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
+            if (st == HD_OK) st = photo_feather(f, &coverage, feather);
+            hd_image_free(&warped);
+            hd_image_free(&coverage);
+        }
+        int m = st == HD_OK ? jobs_of(q, r, d.light, jobs) : 0;
+        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &jobs[i]);
+        hd_decomposition_free(&d);
+    }
+    free(jobs);
+    free(feather);
+    if (st != HD_OK) {
+        hd_apply_result_free(r);
+        return st;
+    }
+    return HD_OK;
+}

@@ -1,0 +1,55 @@
+/* apply.h: internal to src/apply: the pieces of the relighting rule (docs/usage.md, "The relighting
+ * rule"): the face regions a face model does not explain (regions.c), the smooth fields the rule
+ * works with (fields.c: hole filling, blurring, feathering) and the log-ratio field itself
+ * (rule.c), which apply.c puts onto textures and photos. */
+#ifndef HD_APPLY_H
+#define HD_APPLY_H
+
+#include "hdnet.h"
+
+/* The regions where the change follows the skin around: the eyes (sclera, iris, lids), the inside
+ * of the mouth, the eyebrows. Polygons over the 468 landmarks' contours, read in the canonical
+ * mesh's UV layout, so one map serves every face. */
+/* Rasterises the regions into a size x size texture-space map (1 inside, 0 outside), each
+ * polygon grown by HD_REGION_GROW of the texture side. */
+#define HD_REGION_GROW 0.012f
+hd_status hd_face_regions_uv(int size, hd_image *regions);
+
+/* Fills v (w x h, one plane) where known[p] <= 0.5 from the known values around (push-pull over
+ * a pyramid: an unknown texel gets a smooth blend of the nearest known ones). Fails only for want
+ * of memory; with nothing known, v is set to 0. */
+hd_status hd_field_fill(float *v, const float *known, int w, int h);
+/* Gaussian blur of one plane in place, standard deviation sigma pixels (<= 0.3: nothing). */
+hd_status hd_field_blur(float *v, int w, int h, float sigma);
+/* Feather weights: w[p] = smoothstep(d_p / band) with d_p the (chamfer) distance in pixels from
+ * pixel p to the nearest pixel where inside[p] <= 0.5 (or the picture's edge); 0 outside, rising
+ * to 1 at band pixels inside. */
+hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight);
+
+/* The log of the relighting ratio s(N, l_target) / s(N, l_source) (rule.c) at size x size texels:
+ * `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere (the regions
+ * and the texels outside mask filled from the skin, then blurred). d at the model's size; mask
+ * (any size, 1 channel, may be NULL) is the face's. target NULL: flat light (delighting). */
+hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
+                         const hd_light_rgb *target, hd_image *log_ratio);
+
+/* Applies a log-ratio field (1 or 3 planes, at the image's size) to image with feather weights w
+ * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
+ * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the w-weighted mean luminance),
+ * limited per pixel so that no channel passes 1 (one factor for the pixel, so the colour is kept).
+ * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place. */
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image);
+
+/* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
+hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,
+                           hd_brightness brightness, hd_image *out);
+
+/* The centres of the two eyes (the means of their contour landmarks), in the landmarks' frame. */
+void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2]);
+
+/* The before / after sheet of a photo's face 0 (sheet.c, docs/usage.md): row 0 the paper's rule,
+ * row 1 the ratio rule; columns: the photo, the seven presets (brightness kept), the delit face;
+ * each cell the face's square crop at the photo's full resolution. */
+hd_status hd_relight_sheet(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_image *canvas);
+
+#endif /* HD_APPLY_H */

@@ -1,0 +1,166 @@
+/* rule.c: the relighting rule (docs/usage.md, "The relighting rule"). A face is relit by a change
+ * of shading, never by dividing the photo by the network's shading:
+ *     out = I * r,   r = (s(N, l_target) + g) / (s(N, l_source) + g)
+ * with N the predicted normals, l_source the face's estimated light (L-Net's) and g a guard (a
+ * tenth of the face's mean source shading) where the denominator is small. r is exactly 1 when the
+ * light does not change, is one factor for all three channels under a grey light, and is smooth
+ * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
+ * the inside of the mouth, brows: regions.c) and outside the face's mask, log r is filled from the
+ * skin around; the field is then blurred a little, feathered to nothing at the face's edge and
+ * applied with one brightness factor. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "apply/apply.h"
+
+/* g = RATIO_GUARD x the mean source shading over the face */
+#define RATIO_GUARD 0.1f
+/* the blur of log r, a share of the texture side */
+#define RATIO_BLUR 0.012f
+
+static const double LUMA[3] = {0.2126, 0.7152, 0.0722};
+
+/* Unit normals of d at size x size (bilinear, renormalised). */
+static hd_status normals_at(const hd_decomposition *d, int size, hd_image *out)
+{
+    hd_status st = hd_image_resize(&d->normal, size, size, out);
+    if (st != HD_OK) return st;
+    size_t P = (size_t)size * size;
+    float *x = out->data, *y = x + P, *z = y + P;
+    for (size_t p = 0; p < P; p++) {
+        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
+        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
+        x[p] *= inv, y[p] *= inv, z[p] *= inv;
+    }
+    return HD_OK;
+}
+
+hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
+                         const hd_light_rgb *target, hd_image *log_ratio)
+{
+    memset(log_ratio, 0, sizeof *log_ratio);
+    if (!d || !d->normal.data || d->normal.channels != 3)
+        return hd_fail(HD_ERR_ARG, "relight: the decomposition has no normals");
+    if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "relight: a mask has 1 channel");
+    for (int k = 0; k < HD_SH_COEFFS; k++)
+        if (!isfinite(source[k])) return hd_fail(HD_ERR_NUMERIC, "relight: the face's light coefficient %d is not finite", k);
+    const int channels = target && !hd_light_rgb_is_grey(target) ? 3 : 1;
+    if (target)
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < HD_SH_COEFFS; k++)
+                if (!isfinite(target->sh[c][k]))
+                    return hd_fail(HD_ERR_NUMERIC, "relight: light coefficient %d of channel %d is not finite", k, c);
+    const size_t P = (size_t)size * size;
+    hd_image n = {0}, m = {0}, regions = {0}, src = {0};
+    hd_status st = normals_at(d, size, &n);
+    if (st == HD_OK && mask) st = hd_image_resize(mask, size, size, &m);
+    if (st == HD_OK) st = hd_face_regions_uv(size, &regions);
+    if (st == HD_OK) st = hd_image_alloc(&src, size, size, 1);
+    if (st == HD_OK) st = hd_image_alloc(log_ratio, size, size, channels);
+    float *known = regions.data; /* reused: 1 where log r is the model's, 0 where it is filled */
+    if (st == HD_OK) {
+        hd_sh_shading_map(n.data, NULL, (int)P, source, src.data);
+        double mean = 0, count = 0;
+        for (size_t p = 0; p < P; p++) {
+            known[p] = (!m.data || m.data[p] > 0.5f) && regions.data[p] <= 0.5f ? 1.0f : 0.0f;
+            if (src.data[p] < 0) src.data[p] = 0;
+            if (known[p] > 0) mean += src.data[p], count++;
+        }
+        const float g = RATIO_GUARD * (count > 0 && mean > 0 ? (float)(mean / count) : 1.0f);
+        for (int c = 0; c < channels && st == HD_OK; c++) {
+            float *lr = log_ratio->data + (size_t)c * P;
+            if (target) hd_sh_shading_map(n.data, NULL, (int)P, target->sh[c], lr);
+            else for (size_t p = 0; p < P; p++) lr[p] = 1.0f; /* flat light: the albedo's level */
+            for (size_t p = 0; p < P; p++) {
+                float t = lr[p] > 0 ? lr[p] : 0.0f;
+                lr[p] = t == src.data[p] ? 0.0f : logf((t + g) / (src.data[p] + g));
+            }
+            st = hd_field_fill(lr, known, size, size);
+            if (st == HD_OK) st = hd_field_blur(lr, size, size, RATIO_BLUR * size);
+        }
+    }
+    hd_image_free(&n);
+    hd_image_free(&m);
+    hd_image_free(&regions);
+    hd_image_free(&src);
+    if (st != HD_OK) hd_image_free(log_ratio);
+    return st;
+}
+
+/* The w-weighted mean luminance of the relit pixels (idx) for brightness offset t, unclamped. */
+static double relit_lum(const hd_image *lr, const float *w, const hd_image *im, const size_t *idx, size_t n, double t)
+{
+    const size_t P = (size_t)im->width * (size_t)im->height;
+    double acc = 0;
+    for (size_t i = 0; i < n; i++) {
+        size_t p = idx[i];
+        for (int c = 0; c < 3; c++) {
+            const float *l = lr->data + (size_t)(lr->channels == 3 ? c : 0) * P;
+            acc += w[p] * LUMA[c] * im->data[c * P + p] * exp(w[p] * (l[p] + t));
+        }
+    }
+    return acc;
+}
+
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image)
+{
+    if (!image || !image->data || image->channels != 3 || !log_ratio || !log_ratio->data ||
+        (log_ratio->channels != 1 && log_ratio->channels != 3) || log_ratio->width != image->width ||
+        log_ratio->height != image->height)
+        return hd_fail(HD_ERR_ARG, "relight: the ratio field (%d channels, %d x %d) does not fit the %d x %d picture",
+                       log_ratio ? log_ratio->channels : 0, log_ratio ? log_ratio->width : 0,
+                       log_ratio ? log_ratio->height : 0, image ? image->width : 0, image ? image->height : 0);
+    const size_t P = (size_t)image->width * (size_t)image->height;
+    const int C = log_ratio->channels;
+    float *ones = NULL;
+    if (!weight) {
+        if (!(ones = hd_malloc((P ? P : 1) * sizeof(float)))) return HD_ERR_NOMEM;
+        for (size_t p = 0; p < P; p++) ones[p] = 1.0f;
+        weight = ones;
+    }
+    size_t *idx = hd_malloc((P ? P : 1) * sizeof *idx), n = 0;
+    if (!idx) {
+        free(ones);
+        return HD_ERR_NOMEM;
+    }
+    int changes = 0;
+    for (size_t p = 0; p < P; p++)
+        if (weight[p] > 0) {
+            idx[n++] = p;
+            for (int c = 0; c < C; c++) changes |= log_ratio->data[(size_t)c * P + p] != 0.0f;
+        }
+    double t = 0.0;
+    if (changes && brightness == HD_BRIGHTNESS_KEEP) {
+        /* the mean luminance grows with t: bisection for the input's */
+        double goal = 0;
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++) goal += weight[idx[i]] * LUMA[c] * image->data[c * P + idx[i]];
+        double lo = -4.0, hi = 4.0;
+        for (int it = 0; it < 50 && goal > 0; it++) {
+            double mid = 0.5 * (lo + hi);
+            if (relit_lum(log_ratio, weight, image, idx, n, mid) < goal) lo = mid;
+            else hi = mid;
+        }
+        t = goal > 0 ? 0.5 * (lo + hi) : 0.0;
+    }
+    for (size_t i = 0; changes && i < n; i++) {
+        size_t p = idx[i];
+        float w = weight[p];
+        if (C == 1) {
+            /* one factor for the pixel, limited so that no channel passes 1: the colour is kept */
+            float f = (float)exp(w * (log_ratio->data[p] + t)), top = 0;
+            for (int c = 0; c < 3; c++) top = fmaxf(top, image->data[c * P + p]);
+            if (top > 0 && f * top > 1.0f) f = 1.0f / top;
+            for (int c = 0; c < 3; c++) image->data[c * P + p] *= f;
+        } else {
+            for (int c = 0; c < 3; c++) {
+                float v = image->data[c * P + p] * (float)exp(w * (log_ratio->data[(size_t)c * P + p] + t));
+                image->data[c * P + p] = v > 1.0f ? 1.0f : v;
+            }
+        }
+    }
+    free(idx);
+    free(ones);
+    return HD_OK;
+}

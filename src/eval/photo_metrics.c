@@ -1,0 +1,174 @@
+/* photo_metrics.c: how a relit photograph holds up without ground truth (issue 12, docs/usage.md
+ * "Measuring relighting"). Each score compares a relit photo with its input over the pixels the
+ * relighting changed: chroma (colour shift), detail (Laplacian of log-luminance kept), glow (the
+ * eyes follow the light), seam (the change has no edge), self (identity under the face's own light).
+ * Pure functions on in-memory images; the run over folders is photo_eval.c. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+
+/* Chroma is undefined on black: a pixel counts when both r + g + b exceed this. */
+#define CHROMA_MIN_SUM 0.06
+/* log-luminance offset (one 8-bit step) and the luminance below which a ratio is not taken */
+#define LOG_EPS (1.0 / 255.0)
+#define RATIO_MIN_LUM 0.02
+/* seam when the inside of the change has no gradient at all */
+#define SEAM_EPS 1e-9
+
+/* Channel c of pixel p as a picture shows it: clamped to [0, 1] (NaN as 0). */
+static double px(const hd_image *im, int c, size_t p)
+{
+    float v = im->data[(size_t)c * im->width * im->height + p];
+    return v > 0.0f ? (v < 1.0f ? v : 1.0) : 0.0;
+}
+
+static double lum_at(const hd_image *im, size_t p) { return 0.2126 * px(im, 0, p) + 0.7152 * px(im, 1, p) + 0.0722 * px(im, 2, p); }
+
+hd_status hd_photo_changed(const hd_image *input, const hd_image *relit, unsigned char **changed, long *count)
+{
+    *changed = NULL;
+    if (count) *count = 0;
+    if (!input || !relit || !input->data || !relit->data || input->channels != 3 || relit->channels != 3 ||
+        input->width != relit->width || input->height != relit->height)
+        return hd_fail(HD_ERR_ARG, "photo metrics: the input and the relit photo must be RGB of the same size");
+    const size_t P = (size_t)input->width * (size_t)input->height;
+    unsigned char *c = hd_malloc(P ? P : 1);
+    if (!c) return HD_ERR_NOMEM;
+    long n = 0;
+    for (size_t p = 0; p < P; p++) {
+        int d = 0;
+        for (int k = 0; k < 3; k++) d |= input->data[k * P + p] != relit->data[k * P + p];
+        c[p] = (unsigned char)d;
+        n += d;
+    }
+    *changed = c;
+    if (count) *count = n;
+    return HD_OK;
+}
+
+double hd_photo_chroma(const hd_image *input, const hd_image *relit, const unsigned char *changed)
+{
+    const size_t P = (size_t)input->width * (size_t)input->height;
+    double acc = 0.0;
+    long n = 0;
+    for (size_t p = 0; p < P; p++) {
+        if (!changed[p]) continue;
+        double si = 0, so = 0;
+        for (int c = 0; c < 3; c++) si += px(input, c, p), so += px(relit, c, p);
+        if (si <= CHROMA_MIN_SUM || so <= CHROMA_MIN_SUM) continue;
+        double e = 0;
+        for (int c = 0; c < 3; c++) e += fabs(px(relit, c, p) / so - px(input, c, p) / si);
+        acc += e;
+        n++;
+    }
+    return n ? 1000.0 * acc / (double)n : 0.0;
+}
+
+/* The 5-point Laplacian of log(lum + eps) at interior pixel (x, y). */
+static double log_lap(const hd_image *im, int x, int y)
+{
+    const int W = im->width;
+    size_t p = (size_t)y * W + x;
+    double c = log(lum_at(im, p) + LOG_EPS);
+    return log(lum_at(im, p - 1) + LOG_EPS) + log(lum_at(im, p + 1) + LOG_EPS) + log(lum_at(im, p - W) + LOG_EPS) +
+           log(lum_at(im, p + W) + LOG_EPS) - 4.0 * c;
+}
+
+double hd_photo_detail(const hd_image *input, const hd_image *relit, const unsigned char *changed)
+{
+    const int W = input->width, H = input->height;
+    double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+    long n = 0;
+    for (int y = 1; y + 1 < H; y++)
+        for (int x = 1; x + 1 < W; x++) {
+            if (!changed[(size_t)y * W + x]) continue;
+            double a = log_lap(input, x, y), b = log_lap(relit, x, y);
+            sa += a, sb += b, saa += a * a, sbb += b * b, sab += a * b;
+            n++;
+        }
+    if (n < 2) return 1.0;
+    double va = saa - sa * sa / n, vb = sbb - sb * sb / n, cov = sab - sa * sb / n;
+    if (va <= 0 || vb <= 0) return va <= 0 && vb <= 0 ? 1.0 : 0.0;
+    return cov / sqrt(va * vb);
+}
+
+double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigned char *changed,
+                     const float pupils[2][2])
+{
+    const int W = input->width, H = input->height;
+    double dx = pupils[1][0] - pupils[0][0], dy = pupils[1][1] - pupils[0][1];
+    double r = 0.12 * sqrt(dx * dx + dy * dy), r2 = r * r;
+    double eye = 0, face = 0;
+    long ne = 0, nf = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            size_t p = (size_t)y * W + x;
+            double li = lum_at(input, p);
+            if (li <= RATIO_MIN_LUM) continue;
+            double q = lum_at(relit, p) / li;
+            if (changed[p]) face += q, nf++;
+            for (int e = 0; e < 2; e++) {
+                double ex = x + 0.5 - pupils[e][0], ey = y + 0.5 - pupils[e][1];
+                if (ex * ex + ey * ey <= r2) eye += q, ne++;
+            }
+        }
+    if (!ne || !nf || face <= 0) return 1.0;
+    return (eye / ne) / (face / nf);
+}
+
+double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed)
+{
+    const int W = input->width, H = input->height;
+    const size_t P = (size_t)W * (size_t)H;
+    float *d = hd_malloc((P ? P : 1) * sizeof(float));
+    if (!d) return NAN;
+    for (size_t p = 0; p < P; p++) d[p] = (float)(lum_at(relit, p) - lum_at(input, p));
+    double gb = 0, gi = 0;
+    long nb = 0, ni = 0;
+    for (int y = 0; y + 1 < H; y++)
+        for (int x = 0; x + 1 < W; x++) {
+            size_t p = (size_t)y * W + x;
+            /* on the border: a 4-neighbour on the other side of the changed region's edge */
+            int border = (x > 0 && changed[p - 1] != changed[p]) || changed[p + 1] != changed[p] ||
+                         (y > 0 && changed[p - W] != changed[p]) || changed[p + W] != changed[p];
+            if (!border && !changed[p]) continue;
+            double gx = d[p + 1] - d[p], gy = d[p + W] - d[p], g = sqrt(gx * gx + gy * gy);
+            if (border) gb += g, nb++;
+            else gi += g, ni++;
+        }
+    free(d);
+    if (!nb) return 1.0;
+    gb /= nb;
+    gi = ni ? gi / ni : 0.0;
+    return (gb + SEAM_EPS) / (gi + SEAM_EPS);
+}
+
+double hd_photo_mae(const hd_image *a, const hd_image *b, const unsigned char *where)
+{
+    const size_t P = (size_t)a->width * (size_t)a->height;
+    double acc = 0;
+    long n = 0;
+    for (size_t p = 0; p < P; p++) {
+        if (where && !where[p]) continue;
+        for (int c = 0; c < 3; c++) acc += fabs(px(a, c, p) - px(b, c, p));
+        n += 3;
+    }
+    return n ? acc / (double)n : 0.0;
+}
+
+double hd_photo_mean_lum_ratio(const hd_image *input, const hd_image *relit, const unsigned char *where)
+{
+    const size_t P = (size_t)input->width * (size_t)input->height;
+    double a = 0, b = 0;
+    for (size_t p = 0; p < P; p++)
+        if (!where || where[p]) a += lum_at(input, p), b += lum_at(relit, p);
+    return a > 0 ? b / a : 1.0;
+}
+
+double hd_light_difference(const float a[HD_SH_COEFFS], const float b[HD_SH_COEFFS])
+{
+    double d = 0, n = 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++) d += ((double)a[k] - b[k]) * ((double)a[k] - b[k]), n += (double)a[k] * a[k];
+    return n > 0 ? sqrt(d / n) : (d > 0 ? INFINITY : 0.0);
+}
