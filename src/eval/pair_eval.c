@@ -199,8 +199,6 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *rep
     hd_dataset ds;
     hd_status st = hd_dataset_scan(dir, &ds, warn);
     if (st != HD_OK) return st;
-    hd_progress progress;
-    hd_progress_start(&progress, "eval", ds.count);
     for (int sub = 0; sub < ds.subject_count && st == HD_OK; sub++) {
         int lo = ds.subject_start[sub], hi = ds.subject_start[sub + 1];
         for (int i = lo; hi - lo >= 2 && i < hi && st == HD_OK; i++) {
@@ -222,10 +220,8 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *rep
             } else {
                 rep->pairs++;
             }
-            hd_progress_update(&progress, i + 1, NULL);
         }
     }
-    hd_progress_finish(&progress, ds.count, NULL);
     hd_dataset_free(&ds);
     if (st == HD_OK && rep->pairs == 0) st = hd_fail(HD_ERR_NOTFOUND, "%s: no pair could be scored", dir);
     for (int k = 0; st == HD_OK && k < HD_PAIR_ROWS; k++) {

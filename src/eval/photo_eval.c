@@ -152,9 +152,7 @@ hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligne
     memset(&ds, 0, sizeof ds);
     if (st == HD_OK) st = hd_dataset_scan(dir, &ds, warn);
     if (st == HD_OK && !(ev->rows = hd_calloc((size_t)ds.count, sizeof *ev->rows))) st = HD_ERR_NOMEM;
-    hd_progress progress;
     int people = limit > 0 && limit < ds.subject_count ? limit : ds.subject_count;
-    if (st == HD_OK) hd_progress_start(&progress, "eval", people);
     for (int p = 0; p < people && st == HD_OK; p++) {
         float first[HD_SH_COEFFS];
         int first_row = -1;
@@ -180,9 +178,7 @@ hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligne
             }
             ev->count++;
         }
-        hd_progress_update(&progress, p + 1, NULL);
     }
-    if (st == HD_OK) hd_progress_finish(&progress, people, NULL);
     if (st == HD_OK && ev->count == 0) st = hd_fail(HD_ERR_NOTFOUND, "%s: no photo could be scored", dir);
     for (int i = 0; i < nids; i++) free(ids[i]);
     free(ids);
