@@ -175,11 +175,14 @@ check:
 	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
 
-# Data-parallel training on MPI against the single-process run (tests/mpi/train.sh; needs
-# mpirun and Debian's python3 with numpy). Slow on a busy machine: its own target, which CI calls.
+# Data-parallel training on MPI against the single-process run (tests/mpi/train.sh), and the batch
+# commands' split of their inputs across ranks (tests/mpi/batch.sh); needs mpirun and Debian's
+# python3 with numpy. Slow on a busy machine: its own target, which CI calls.
 test-mpi: $(BUILD)/hdnet
-	@d=$$(mktemp -d "$${TMPDIR:-/tmp}/hdnet-mpi.XXXXXX") && cd "$$d" && \
-	    HDNET=$(abspath $(BUILD)/hdnet) sh $(abspath tests/mpi/train.sh); rc=$$?; rm -rf "$$d"; exit $$rc
+	@for t in batch train; do \
+	    d=$$(mktemp -d "$${TMPDIR:-/tmp}/hdnet-mpi.XXXXXX") && cd "$$d" && \
+	    HDNET=$(abspath $(BUILD)/hdnet) sh $(abspath tests/mpi)/$$t.sh; rc=$$?; cd /; rm -rf "$$d"; \
+	    [ $$rc -eq 0 ] || exit $$rc; done
 
 # ThreadSanitizer over tests/test_threads.c (one model and one aligner in 4 threads). With clang,
 # on the portable path: oneDNN and OpenBLAS are not instrumented (OpenBLAS is kept to one thread),

@@ -1,6 +1,7 @@
-/* batch.c: the inputs of the many-photo commands (files, folders walked recursively, @lists), the
- * output naming rule OUT/REL + suffix, and the run loop with progress, failure reports and the
- * summary (batch.h, docs/usage.md "Many photos"). */
+/* batch.c: the inputs of the many-photo commands (files, folders walked recursively, @lists) and
+ * their split across MPI ranks, the output naming rule OUT/REL + suffix, and the run loop with
+ * progress, failure reports and the job's summary (batch.h, docs/usage.md "Many photos",
+ * docs/scaling.md "Inference"). */
 #include <ctype.h>
 #include <dirent.h>
 #include <stdlib.h>
@@ -10,6 +11,7 @@
 #include <unistd.h>
 #include "batch.h"
 #include "hdnet_tool.h"
+#include "mpi.h"
 
 #define MAX_DEPTH 32      /* folder nesting walked (a symlink loop stops here) */
 #define MAX_LIST_LINE 4096
@@ -167,13 +169,38 @@ static hd_status add_list(cli_inputs *in, const char *list)
     return st;
 }
 
+/* Keeps the inputs i with i % R == rank of the job's listing (every rank made the same one), and
+ * the listing's paths for putting the ranks' JSON results back in order. */
+static hd_status take_share(cli_inputs *in)
+{
+    const int rank = cli_mpi_rank(), ranks = cli_mpi_ranks();
+    in->total = in->count;
+    if (ranks <= 1) return HD_OK;
+    if (!(in->listing = calloc((size_t)in->total + 1, sizeof *in->listing)))
+        return hd_fail(HD_ERR_NOMEM, "out of memory listing the inputs");
+    for (int i = 0; i < in->total; i++)
+        if (!(in->listing[i] = strdup(in->v[i].path))) return hd_fail(HD_ERR_NOMEM, "out of memory listing the inputs");
+    int kept = 0;
+    for (int i = 0; i < in->total; i++) {
+        if (i % ranks == rank) {
+            in->v[kept++] = in->v[i];
+        } else {
+            free(in->v[i].path);
+            free(in->v[i].rel);
+        }
+    }
+    in->count = kept;
+    return HD_OK;
+}
+
 hd_status cli_inputs_collect(cli_inputs *in, char *const *args, int nargs)
 {
+    if (cli_mpi_init(NULL, NULL)) return hd_fail(HD_ERR_ARG, "cannot start as an MPI rank (see above)");
     for (int i = 0; i < nargs; i++) {
         hd_status st = args[i][0] == '@' && args[i][1] ? add_list(in, args[i] + 1) : add_argument(in, args[i]);
         if (st != HD_OK) return st;
     }
-    return HD_OK;
+    return take_share(in);
 }
 
 void cli_inputs_free(cli_inputs *in)
@@ -182,6 +209,8 @@ void cli_inputs_free(cli_inputs *in)
         free(in->v[i].path);
         free(in->v[i].rel);
     }
+    for (int i = 0; in->listing && i < in->total; i++) free(in->listing[i]);
+    free(in->listing);
     free(in->v);
     memset(in, 0, sizeof *in);
 }
@@ -232,6 +261,28 @@ char *cli_output_path(const char *out, const cli_input *in, const char *suffix)
     return p;
 }
 
+int cli_batch_reports(void) { return cli_mpi_rank() == 0; }
+
+const char *cli_batch_label(const char *cmd, char *buf, size_t n)
+{
+    if (cli_mpi_ranks() > 1) snprintf(buf, n, "%s (rank 0 of %d)", cmd, cli_mpi_ranks());
+    else snprintf(buf, n, "%s", cmd);
+    return buf;
+}
+
+hd_status cli_summary_reduce(cli_summary *s, double t0)
+{
+    double n[5] = {s->inputs, s->done, s->no_face, s->failed, s->faces};
+    hd_status st = cli_mpi_sum_doubles(NULL, n, 5);
+    if (st == HD_OK) {
+        s->inputs = (int)n[0], s->done = (int)n[1], s->no_face = (int)n[2], s->failed = (int)n[3], s->faces = (int)n[4];
+    } else {
+        s->failed++; /* counted as a failure here, so that this rank's exit status says so */
+    }
+    s->seconds = hd_seconds() - t0;
+    return st;
+}
+
 int cli_summary_status(const cli_summary *s)
 {
     return s->inputs > 0 && s->done == s->inputs ? CLI_EXIT_OK : CLI_EXIT_FAIL;
@@ -241,16 +292,17 @@ int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const
                   cli_photo_fn fn, void *ctx, cli_summary *summary)
 {
     cli_summary s = {in->count, 0, 0, 0, 0, 0.0};
-    const int many = in->count > 1;
+    const int many = in->total > 1, show = many && !quiet && cli_batch_reports();
     const int tty = isatty(fileno(stderr));
     cli_progress progress;
-    if (many && !quiet) cli_progress_start(&progress, cmd, in->count);
+    char label[64];
+    if (show) cli_progress_start(&progress, cli_batch_label(cmd, label, sizeof label), in->count);
     double t0 = hd_seconds();
     cli_result r;
     for (int i = 0; i < in->count; i++) {
         memset(&r, 0, sizeof r);
         hd_status st = fn(ctx, &in->v[i], out, single, &r);
-        if (st != HD_OK && many && !quiet && tty) fprintf(stderr, "\r\033[K"); /* off the progress line */
+        if (st != HD_OK && show && tty) fprintf(stderr, "\r\033[K"); /* off the progress line */
         if (st == HD_ERR_NOTFOUND) {
             fprintf(stderr, "hdnet %s: %s: no face found%s\n", cmd, in->v[i].path,
                     many                           ? ", skipped"
@@ -270,11 +322,11 @@ int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const
             if (!many && !quiet)
                 printf("%s: %s %d face%s -> %s\n", in->v[i].path, verb, r.faces, r.faces == 1 ? "" : "s", r.wrote);
         }
-        if (many && !quiet) cli_progress_update(&progress, i + 1, NULL);
+        if (show) cli_progress_update(&progress, i + 1, NULL);
     }
-    s.seconds = hd_seconds() - t0;
-    if (many && !quiet) {
-        cli_progress_finish(&progress, in->count, NULL);
+    if (show) cli_progress_finish(&progress, in->count, NULL);
+    if (cli_summary_reduce(&s, t0) != HD_OK) fprintf(stderr, "hdnet %s: %s\n", cmd, hd_error());
+    if (show) {
         printf("%s: %d photos -> %s: %d done (%d face%s), %d without a face, %d failed; %.1f s, %.2f photos/s\n", cmd,
                s.inputs, out, s.done, s.faces, s.faces == 1 ? "" : "s", s.no_face, s.failed, s.seconds,
                s.seconds > 0 ? s.inputs / s.seconds : 0.0);
@@ -297,8 +349,98 @@ cJSON *cli_summary_json(const cli_summary *s, const char *out)
     return o;
 }
 
-int cli_json_print_run(const char *cmd, cJSON **results, const cli_summary *s, const char *out, int ok_status)
+/* A result, the place of its input in the job's listing, and its place in the gathered order. */
+typedef struct ranked_result {
+    int index, order;
+    cJSON *item;
+} ranked_result;
+
+static int compare_ranked(const void *a, const void *b)
 {
+    const ranked_result *x = a, *y = b;
+    if (x->index != y->index) return (x->index > y->index) - (x->index < y->index);
+    return (x->order > y->order) - (x->order < y->order);
+}
+
+/* The listing's indices sorted by path (then index), for looking a result's "file" up. */
+static const cli_inputs *sorting;
+static int compare_listed(const void *a, const void *b)
+{
+    int i = *(const int *)a, j = *(const int *)b, c = strcmp(sorting->listing[i], sorting->listing[j]);
+    return c ? c : (i > j) - (i < j);
+}
+
+/* The first place of path in the listing (by_path: the indices sorted by compare_listed), or
+ * total if it is not there. */
+static int listing_index(const cli_inputs *in, const int *by_path, const char *path)
+{
+    int lo = 0, hi = in->total;
+    while (path && lo < hi) {
+        int mid = lo + (hi - lo) / 2;
+        if (strcmp(in->listing[by_path[mid]], path) < 0) lo = mid + 1;
+        else hi = mid;
+    }
+    return path && lo < in->total && strcmp(in->listing[by_path[lo]], path) == 0 ? by_path[lo] : in->total;
+}
+
+/* Under MPI: the results of every rank, on rank 0, in the job's input order; NULL elsewhere (and
+ * on failure, with the reason set). Every rank must call it. */
+static cJSON *gather_results(cJSON *mine, const cli_inputs *in)
+{
+    char *text = cJSON_PrintUnformatted(mine);
+    char **texts = cli_mpi_gather_text(text ? text : "[]");
+    free(text);
+    if (!texts || !cli_batch_reports()) {
+        cli_mpi_free_texts(texts);
+        return NULL;
+    }
+    cJSON *all = cJSON_CreateArray();
+    for (int r = 0; r < cli_mpi_ranks() && all; r++) {
+        cJSON *part = cJSON_Parse(texts[r]), *item;
+        while (part && (item = cJSON_DetachItemFromArray(part, 0))) cJSON_AddItemToArray(all, item);
+        cJSON_Delete(part);
+    }
+    cli_mpi_free_texts(texts);
+    int n = all ? cJSON_GetArraySize(all) : 0, k = 0;
+    ranked_result *v = calloc((size_t)n + 1, sizeof *v);
+    int *by_path = calloc((size_t)in->total + 1, sizeof *by_path);
+    if (!all || !v || !by_path) {
+        free(v);
+        free(by_path);
+        cJSON_Delete(all);
+        hd_fail(HD_ERR_NOMEM, "out of memory gathering the results");
+        return NULL;
+    }
+    for (int i = 0; i < in->total; i++) by_path[i] = i;
+    sorting = in;
+    qsort(by_path, (size_t)in->total, sizeof *by_path, compare_listed);
+    /* a result's input is its "file"; results of one input keep the order they were made in */
+    cJSON *item;
+    while ((item = cJSON_DetachItemFromArray(all, 0))) {
+        v[k].index = listing_index(in, by_path, cJSON_GetStringValue(cJSON_GetObjectItem(item, "file")));
+        v[k].order = k;
+        v[k++].item = item;
+    }
+    qsort(v, (size_t)k, sizeof *v, compare_ranked);
+    for (int i = 0; i < k; i++) cJSON_AddItemToArray(all, v[i].item);
+    free(v);
+    free(by_path);
+    return all;
+}
+
+int cli_json_print_run(const char *cmd, cJSON **results, const cli_inputs *in, const cli_summary *s, const char *out,
+                       int ok_status)
+{
+    if (cli_mpi_ranks() > 1) {
+        cJSON *all = gather_results(*results, in);
+        cJSON_Delete(*results);
+        *results = all;
+        if (!cli_batch_reports()) return ok_status;
+        if (!all) {
+            fprintf(stderr, "hdnet %s: %s\n", cmd, hd_error());
+            return CLI_EXIT_FAIL;
+        }
+    }
     cJSON *doc = cJSON_CreateObject();
     if (doc) {
         cJSON_AddItemToObject(doc, "results", *results);

@@ -16,14 +16,18 @@ typedef struct cli_input {
 } cli_input;
 
 typedef struct cli_inputs {
-    cli_input *v;
+    cli_input *v; /* this process's share of the job's inputs */
     int count, cap;
+    int total;       /* the job's inputs over every rank (count, for a single process) */
+    char **listing;  /* under MPI with more than one rank: the job's input paths, in order (total) */
 } cli_inputs;
 
-/* Appends the images of each argument: a file (kept even if it cannot be read: the run reports
+/* Lists the images of each argument: a file (kept even if it cannot be read: the run reports
  * it), a folder (its .png/.jpg/.jpeg images, recursively, in name order, without companions such
  * as NAME.mask.png or outputs such as NAME.relit.png beside NAME.png), or @LIST (a text file of
- * files and folders, one a line; blank lines and lines starting with '#' skipped). */
+ * files and folders, one a line; blank lines and lines starting with '#' skipped). Under mpirun
+ * (or srun) with R ranks every rank makes this same listing and keeps its share: input i goes to
+ * rank i % R (docs/scaling.md, "Inference"); in->total is the job's count. */
 hd_status cli_inputs_collect(cli_inputs *in, char *const *args, int nargs);
 void cli_inputs_free(cli_inputs *in);
 
@@ -56,13 +60,23 @@ typedef hd_status (*cli_photo_fn)(void *ctx, const cli_input *in, const char *ou
  * summary (one input: "PATH: <verb> K faces -> FILE"; many: "CMD: N photos -> OUT: D done
  * (F faces), X without a face, Y failed; T s, R photos/s"). -q keeps only the problems. Returns
  * the exit status: 0 when every input was done, 1 when any had no face or failed (or none was
- * given). summary (may be NULL) receives the counts, for --json. */
+ * given). summary (may be NULL) receives the counts, for --json. Under MPI each rank runs its
+ * share and reports its own failures; the progress line is rank 0's share, and the summary, the
+ * counts and the exit status are the job's, summed over the ranks (the same on every rank). */
 typedef struct cli_summary {
     int inputs, done, no_face, failed, faces;
     double seconds;
 } cli_summary;
 int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const char *out, int single, int quiet,
                   cli_photo_fn fn, void *ctx, cli_summary *summary);
+/* Sums a rank's counts over every rank of the job (MPI_Allreduce; nothing for one process) and
+ * sets seconds to the time since t0 (every rank has waited for the slowest by then). */
+hd_status cli_summary_reduce(cli_summary *s, double t0);
+/* 1 on the rank that prints the job's summary and progress (rank 0; always, for one process). */
+int cli_batch_reports(void);
+/* The progress line's label: CMD, or "CMD (rank 0 of R)" under MPI (the line counts rank 0's
+ * share); written into buf. */
+const char *cli_batch_label(const char *cmd, char *buf, size_t n);
 /* The exit status of a summary (as cli_batch_run returns it). */
 int cli_summary_status(const cli_summary *s);
 
@@ -72,7 +86,9 @@ cJSON *cli_summary_json(const cli_summary *s, const char *out);
  * message) if it could not be printed (out of memory), else ok_status. */
 int cli_json_print(const char *cmd, cJSON *doc, int ok_status);
 /* Prints {"results": *results, "summary": cli_summary_json(s, out)} that way; takes *results
- * (set to NULL). */
-int cli_json_print_run(const char *cmd, cJSON **results, const cli_summary *s, const char *out, int ok_status);
+ * (set to NULL). Under MPI every rank calls it: the results of all ranks are gathered on rank 0,
+ * put in the order of the job's inputs (by their "file") and printed there alone. */
+int cli_json_print_run(const char *cmd, cJSON **results, const cli_inputs *in, const cli_summary *s, const char *out,
+                       int ok_status);
 
 #endif /* HD_BATCH_H */

@@ -272,15 +272,16 @@ int cmd_decompose(int argc, char **argv)
     hd_status st = cli_inputs_collect(&in, pos, npos);
     for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], out);
     free(pos);
-    if (st != HD_OK || jobs.count == 0 || hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
+    if (st != HD_OK || in.total == 0 || hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
         rc = cli_report("decompose");
         goto done;
     }
     inputs = jobs.count;
     const double t0 = hd_seconds();
     cli_progress progress;
-    const int show = !quiet && !json && jobs.count > 1;
-    if (show) cli_progress_start(&progress, "decompose", jobs.count);
+    char label[64];
+    const int show = !quiet && !json && in.total > 1 && cli_batch_reports(); /* under MPI: rank 0's share */
+    if (show) cli_progress_start(&progress, cli_batch_label("decompose", label, sizeof label), jobs.count);
     /* photos one at a time (each aligned first); the aligned textures below in batches */
     for (int i = 0; i < jobs.count; i++) {
         if (aligned || hd_input_kind_of(jobs.v[i].image) == HD_INPUT_TEXTURE) {
@@ -384,15 +385,17 @@ int cmd_decompose(int argc, char **argv)
     }
     if (show) cli_progress_finish(&progress, inputs, NULL);
     free(tex), free(mask), free(d), free(sheets), free(index);
-    cli_summary sum = {inputs, written, no_face, failed, faces, hd_seconds() - t0};
-    if (!quiet && !json) {
+    cli_summary sum = {inputs, written, no_face, failed, faces, 0.0};
+    if (cli_summary_reduce(&sum, t0) != HD_OK) cli_report("decompose"); /* the job's counts, on every rank */
+    written = sum.done, failed = sum.failed, no_face = sum.no_face;
+    if (!quiet && !json && cli_batch_reports()) {
         printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
         if (failed) printf(" (%d failed)", failed);
         if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
         printf("\n");
     }
     rc = cli_summary_status(&sum);
-    if (json) rc = cli_json_print_run("decompose", &results, &sum, out, rc);
+    if (json) rc = cli_json_print_run("decompose", &results, &in, &sum, out, rc);
 done:
     cJSON_Delete(results);
     if (model) hd_model_free(model);

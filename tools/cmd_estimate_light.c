@@ -119,8 +119,8 @@ int cmd_estimate_light(int argc, char **argv)
         rc = cli_report("estimate-light");
         goto done;
     }
-    if (preview && in.count != 1) {
-        rc = cli_usage_error(&spec, "--preview goes with one input (%d given)", in.count);
+    if (preview && in.total != 1) {
+        rc = cli_usage_error(&spec, "--preview goes with one input (%d given)", in.total);
         goto done;
     }
     if (json && !(run.results = cJSON_CreateArray())) {
@@ -134,7 +134,7 @@ int cmd_estimate_light(int argc, char **argv)
     cli_summary sum;
     rc = cli_batch_run("estimate-light", "estimated the light of", &in, out, single, quiet || json, estimate_one, &run,
                        &sum);
-    if (json) rc = cli_json_print_run("estimate-light", &run.results, &sum, out, rc);
+    if (json) rc = cli_json_print_run("estimate-light", &run.results, &in, &sum, out, rc);
 done:
     if (code) rc = code;
     cJSON_Delete(run.results);

@@ -239,8 +239,8 @@ int cmd_relight(int argc, char **argv)
         rc = cli_report("relight");
         goto done;
     }
-    if (sheet_path && in.count != 1) {
-        cli_usage_error(&spec, "--sheet goes with one input (%d given)", in.count);
+    if (sheet_path && in.total != 1) {
+        cli_usage_error(&spec, "--sheet goes with one input (%d given)", in.total);
         goto done;
     }
     rc = CLI_EXIT_FAIL;

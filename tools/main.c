@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <string.h>
 #include "cli.h"
+#include "mpi.h"
 
 #include "commands.inc"
 
@@ -63,7 +64,11 @@ int main(int argc, char **argv)
         return CLI_EXIT_USAGE;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        if (strcmp(commands[i].name, name) == 0) return commands[i].run(argc - 1, argv + 1);
+        if (strcmp(commands[i].name, name) == 0) {
+            int rc = commands[i].run(argc - 1, argv + 1);
+            cli_mpi_finish(); /* if the command ran as an MPI rank (train, the batch commands) */
+            return rc;
+        }
     fprintf(stderr, "hdnet: unknown command '%s' (see: hdnet help)\n", name);
     return CLI_EXIT_USAGE;
 }

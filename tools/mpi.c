@@ -4,6 +4,7 @@
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include "mpi.h"
 #include "hdnet.h"
 #include "hdnet_tool.h"
@@ -11,7 +12,7 @@
 #include <mpi.h>
 #endif
 
-static int mpi_on, mpi_rank, mpi_ranks = 1;
+static int mpi_on, mpi_tried, mpi_init_code, mpi_rank, mpi_ranks = 1;
 static double mpi_seconds;
 
 /* The size of the job the launcher says this process belongs to (1 when not launched by one). */
@@ -27,6 +28,9 @@ static int launcher_ranks(void)
 
 int cli_mpi_init(int *argc, char ***argv)
 {
+    if (mpi_tried) return mpi_init_code; /* once per process: train and the batch layer both call it */
+    mpi_tried = 1;
+    mpi_init_code = 1; /* until it succeeds */
     int want = launcher_ranks();
 #if HD_HAVE_MPI
     /* Under Slurm without srun's MPI plugin SLURM_NTASKS alone does not make an MPI job. */
@@ -40,7 +44,7 @@ int cli_mpi_init(int *argc, char ***argv)
         MPI_Comm_rank(MPI_COMM_WORLD, &mpi_rank);
         MPI_Comm_size(MPI_COMM_WORLD, &mpi_ranks);
     }
-    return 0;
+    return mpi_init_code = 0;
 #else
     (void)argc;
     (void)argv;
@@ -49,7 +53,7 @@ int cli_mpi_init(int *argc, char ***argv)
                         "Open MPI (apt-get install libopenmpi-dev openmpi-bin) and rebuild (make)\n", want);
         return 1;
     }
-    return 0;
+    return mpi_init_code = 0;
 #endif
 }
 
@@ -74,6 +78,13 @@ void cli_mpi_abort(int code)
 }
 
 #if HD_HAVE_MPI
+/* Rank 0 cannot gather what the ranks send: ends the job rather than leave them waiting. */
+static void root_out_of_memory(void)
+{
+    fprintf(stderr, "hdnet: rank 0: out of memory gathering the results of %d ranks\n", mpi_ranks);
+    MPI_Abort(MPI_COMM_WORLD, 1);
+}
+
 static hd_status sum(void *x, size_t n, MPI_Datatype type, const char *what)
 {
     double t0 = MPI_Wtime();
@@ -110,4 +121,53 @@ hd_status cli_mpi_sum_doubles(void *ctx, double *x, size_t n)
     (void)x;
     (void)n;
     return HD_OK;
+}
+
+char **cli_mpi_gather_text(const char *text)
+{
+    char **all = calloc((size_t)mpi_ranks, sizeof *all);
+#if HD_HAVE_MPI
+    if (mpi_on && mpi_ranks > 1) {
+        /* every rank takes part in both collectives whatever happened: one that left would hang the
+         * rest; the root, which cannot do without its buffers, ends the job instead */
+        size_t n = strlen(text) + 1;
+        int len = n < INT_MAX ? (int)n : 1, *lens = NULL, *offs = NULL;
+        char *buf = NULL;
+        if (mpi_rank == 0) {
+            lens = calloc((size_t)mpi_ranks, sizeof *lens);
+            offs = calloc((size_t)mpi_ranks, sizeof *offs);
+            if (!all || !lens || !offs) root_out_of_memory();
+        }
+        MPI_Gather(&len, 1, MPI_INT, lens, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        if (mpi_rank == 0) {
+            long long total = 0;
+            for (int r = 0; r < mpi_ranks; r++) {
+                offs[r] = (int)total;
+                total += lens[r];
+                if (total >= INT_MAX) root_out_of_memory();
+            }
+            if (!(buf = malloc((size_t)total))) root_out_of_memory();
+        }
+        MPI_Gatherv(n < INT_MAX ? text : "", len, MPI_CHAR, buf, lens, offs, MPI_CHAR, 0, MPI_COMM_WORLD);
+        for (int r = 0; mpi_rank == 0 && r < mpi_ranks; r++)
+            if (!(all[r] = strdup(buf + offs[r]))) root_out_of_memory();
+        free(buf);
+        free(lens);
+        free(offs);
+        if (!all) hd_fail(HD_ERR_NOMEM, "out of memory gathering the results");
+        return all;
+    }
+#endif
+    if (all && !(all[0] = strdup(text))) {
+        free(all);
+        all = NULL;
+    }
+    if (!all) hd_fail(HD_ERR_NOMEM, "out of memory");
+    return all;
+}
+
+void cli_mpi_free_texts(char **texts)
+{
+    for (int r = 0; texts && r < mpi_ranks; r++) free(texts[r]);
+    free(texts);
 }

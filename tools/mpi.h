@@ -10,7 +10,8 @@
 
 /* Initialises MPI if this process was started by an MPI launcher (and the tool has MPI); 0 on
  * success. Without MPI support under a launcher with more than one rank it prints how to get it
- * and returns nonzero. Call once, before any other cli_mpi_ call. */
+ * and returns nonzero. Call before any other cli_mpi_ call; later calls return the first one's
+ * result. */
 int cli_mpi_init(int *argc, char ***argv);
 /* MPI_Finalize, if cli_mpi_init initialised MPI. */
 void cli_mpi_finish(void);
@@ -21,6 +22,11 @@ void cli_mpi_abort(int code);
 /* Sums x[0..n) over all ranks, in place (MPI_Allreduce); HD_OK at once for one rank. */
 hd_status cli_mpi_sum_floats(void *ctx, float *x, size_t n);
 hd_status cli_mpi_sum_doubles(void *ctx, double *x, size_t n);
+/* Gathers one string per rank on rank 0 (MPI_Gather + MPI_Gatherv; every rank must call it):
+ * rank 0 gets an array of cli_mpi_ranks() strings in rank order, other ranks an array of NULLs
+ * (free both with cli_mpi_free_texts). NULL with the reason set when out of memory. */
+char **cli_mpi_gather_text(const char *text);
+void cli_mpi_free_texts(char **texts);
 /* Seconds spent in the sums so far (for the scaling figures). */
 double cli_mpi_seconds(void);
 
