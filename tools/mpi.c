@@ -12,7 +12,10 @@
 #include <mpi.h>
 #endif
 
-static int mpi_on, mpi_tried, mpi_init_code, mpi_rank, mpi_ranks = 1;
+#if HD_HAVE_MPI
+static int mpi_on; /* MPI_Init was called */
+#endif
+static int mpi_tried, mpi_init_code, mpi_rank, mpi_ranks = 1;
 static double mpi_seconds;
 
 /* The size of the job the launcher says this process belongs to (1 when not launched by one). */
