@@ -85,6 +85,12 @@ int hd_threads(void);
 
 /* Maximum width or height accepted from any file. */
 #define HD_IMAGE_MAX_SIDE 16384
+/* Maximum pixel count (width x height) any image reader decodes, checked from the header before
+ * anything is allocated: HD_DEFAULT_MAX_PIXELS (100 megapixels), or the environment variable
+ * HDNET_MAX_PIXELS, or what hd_set_max_pixels set (0 restores the default). */
+#define HD_DEFAULT_MAX_PIXELS 100000000LL
+void hd_set_max_pixels(long long pixels);
+long long hd_max_pixels(void);
 
 typedef struct hd_image {
     int width, height, channels;
@@ -104,6 +110,10 @@ hd_status hd_image_read(const char *path, hd_image *img);
 hd_status hd_image_read_as(const char *path, int channels, hd_image *img);
 /* Converts between 1, 2, 3 and 4 channels as hd_image_read_as does; dst is allocated. */
 hd_status hd_image_convert(const hd_image *src, int channels, hd_image *dst);
+/* HD_ERR_NUMERIC with a reason "WHAT: N of M samples are not finite (first at channel C, x X,
+ * y Y)" when any sample is NaN or infinite; HD_OK otherwise. Every image writer refuses a
+ * non-finite image this way (nothing is written); callers check first to name the stage. */
+hd_status hd_image_check_finite(const hd_image *img, const char *what);
 /* Writes PNG with 8 or 16 bits per channel (values clamped to [0, 1]); 1-4 channels. The file is
  * written to a temporary name and renamed, so a failure leaves no partial output. */
 hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
@@ -212,6 +222,9 @@ void hd_sh_shading_map(const float *normal, const float *mask, int npix,
 hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask, int npix,
                     float light[HD_SH_COEFFS]);
 /* Light files: 9 numbers, DPR order. Errors name the file and line. */
+/* Largest |coefficient| a light file may hold: the shading of such a light (at most about
+ * 10 x HD_LIGHT_MAX_COEFF) and everything computed from it stay far from float overflow. */
+#define HD_LIGHT_MAX_COEFF 1e6f
 hd_status hd_light_read(const char *path, float light[HD_SH_COEFFS]);
 hd_status hd_light_write(const char *path, const float light[HD_SH_COEFFS]);
 /* A gray light of DPR's scale from a direction: azimuth and elevation in degrees (see

@@ -1,7 +1,8 @@
 #!/bin/sh
 # broken_files.sh: every file of tests/data/broken/ (made by tests/data/make_broken.py) must be
 # refused by `hdnet info` with exit status 1 or 2 (never 0, never a signal: status >= 128) and one
-# line on stderr, `hdnet info: <reason>`, that names the file. Under `make check` a sanitizer
+# line on stderr, `hdnet info: <reason>`, that names the file and holds no raw control byte
+# (input's bytes below 0x20 and 0x7f are printed escaped, \x1b). Under `make check` a sanitizer
 # report also exits 1, so any sanitizer output counts as a failure too.
 set -u
 data=${HDNET_TESTDATA:?HDNET_TESTDATA is not set}/broken
@@ -27,6 +28,8 @@ for f in "$data"/*; do
         problem="the message does not name the file"
     elif [ "$(wc -l <stderr.txt)" -ne 1 ]; then
         problem="more than one line on stderr"
+    elif tr -d '\n' <stderr.txt | LC_ALL=C grep -q '[[:cntrl:]]'; then
+        problem="a control byte of the file reached stderr raw (it must be escaped, \\x1b)"
     fi
     if [ -n "$problem" ]; then
         echo "broken_files: $name: $problem" >&2

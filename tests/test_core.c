@@ -1,7 +1,11 @@
-/* test_core.c: the core services: RNG determinism and range, checked sizes, arena, atomic files,
- * progress lines. */
+/* test_core.c: the core services: RNG determinism and range, checked sizes, arena, atomic files
+ * (never through a symlink, temporaries O_EXCL with an unguessable name and mode 0644 under the
+ * umask, output sets, stale temporaries, the folder lock), escaping, progress lines. */
+#include <dirent.h>
 #include <string.h>
 #include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include "test.h"
 #include "core/core.h"
 
@@ -70,6 +74,107 @@ static void test_atomic_file(void)
     CHECK(hd_mkdirs("a/b/c") == HD_OK && hd_is_dir("a/b/c"));
 }
 
+/* How many entries of dir start with prefix. */
+static int count_prefixed(const char *dir, const char *prefix)
+{
+    DIR *d = opendir(dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)) != NULL) n += strncmp(e->d_name, prefix, strlen(prefix)) == 0;
+    if (d) closedir(d);
+    return n;
+}
+
+static int exists(const char *path)
+{
+    struct stat sb;
+    return lstat(path, &sb) == 0;
+}
+
+static void test_atomic_safety(void)
+{
+    CHECK(hd_mkdirs("safe") == HD_OK);
+    FILE *f = fopen("safe/target", "w");
+    fputs("precious", f);
+    fclose(f);
+    /* a symlink at the output itself: refused, the target untouched */
+    CHECK(symlink("target", "safe/out") == 0);
+    hd_atomic_file af;
+    CHECK(hd_atomic_open(&af, "safe/out") == HD_ERR_IO);
+    CHECK(strstr(hd_error(), "safe/out: is a symbolic link") != NULL);
+    FILE *ap = hd_open_append("safe/out");
+    CHECK(ap == NULL);
+    if (ap) fclose(ap);
+    char *data;
+    size_t n;
+    CHECK(hd_read_file("safe/target", 100, &data, &n) == HD_OK && strcmp(data, "precious") == 0);
+    free(data);
+    unlink("safe/out");
+    /* the old guessable name is planted: the temporary is elsewhere, the output a regular file */
+    char old[64];
+    snprintf(old, sizeof old, "safe/out.tmp.%ld", (long)getpid());
+    CHECK(symlink("target", old) == 0);
+    mode_t mask = umask(022);
+    CHECK(hd_atomic_open(&af, "safe/out") == HD_OK);
+    CHECK(strncmp(af.tmp_path, old, strlen(old)) == 0 && strlen(af.tmp_path) == strlen(old) + 17);
+    struct stat sb;
+    CHECK(stat(af.tmp_path, &sb) == 0 && (sb.st_mode & 0777) == 0644);
+    fputs("new", af.f);
+    CHECK(hd_atomic_commit(&af) == HD_OK);
+    umask(mask);
+    CHECK(lstat("safe/out", &sb) == 0 && S_ISREG(sb.st_mode));
+    CHECK(hd_read_file("safe/target", 100, &data, &n) == HD_OK && strcmp(data, "precious") == 0);
+    free(data);
+    /* two opens of one path get different temporaries */
+    hd_atomic_file a2, b2;
+    CHECK(hd_atomic_open(&a2, "safe/two") == HD_OK && hd_atomic_open(&b2, "safe/two") == HD_OK);
+    CHECK(strcmp(a2.tmp_path, b2.tmp_path) != 0);
+    hd_atomic_abort(&a2);
+    hd_atomic_abort(&b2);
+    CHECK(count_prefixed("safe", "two") == 0);
+
+    /* output sets: nothing appears before the end; end(0) leaves nothing at all */
+    hd_atomic_set_begin();
+    CHECK(hd_atomic_open(&af, "safe/set1") == HD_OK && hd_atomic_commit(&af) == HD_OK);
+    CHECK(hd_atomic_open(&af, "safe/set2") == HD_OK && hd_atomic_commit(&af) == HD_OK);
+    CHECK(!exists("safe/set1") && !exists("safe/set2") && count_prefixed("safe", "set") == 2);
+    CHECK(hd_atomic_set_end(0) == HD_OK);
+    CHECK(count_prefixed("safe", "set") == 0);
+    hd_atomic_set_begin();
+    CHECK(hd_atomic_open(&af, "safe/set1") == HD_OK && hd_atomic_commit(&af) == HD_OK);
+    CHECK(hd_atomic_open(&af, "safe/set2") == HD_OK && hd_atomic_commit(&af) == HD_OK);
+    CHECK(hd_atomic_set_end(1) == HD_OK);
+    CHECK(exists("safe/set1") && exists("safe/set2") && count_prefixed("safe", "set") == 2);
+
+    /* stale temporaries: a dead process's go, a live one's and other files stay */
+    CHECK(hd_mkdirs("stale") == HD_OK);
+    const char *names[] = {"stale/a.png.tmp.999999999.0123456789abcdef", "stale/b.png.tmp.1.0123456789abcdef",
+                           "stale/c.tmp.999999999.short", "stale/d.tmp.txt"};
+    for (int i = 0; i < 4; i++) {
+        f = fopen(names[i], "w");
+        if (f) fclose(f);
+    }
+    CHECK(hd_remove_stale_temporaries("stale") == 1);
+    CHECK(!exists(names[0]) && exists(names[1]) && exists(names[2]) && exists(names[3]));
+
+    /* the folder lock: a second holder (another open file description) is refused */
+    int l1 = -1, l2 = -1;
+    CHECK(hd_lock_folder("safe", &l1) == HD_OK);
+    CHECK(hd_lock_folder("safe", &l2) == HD_ERR_IO && strstr(hd_error(), "another hdnet process") != NULL);
+    hd_unlock_folder(l1);
+    CHECK(hd_lock_folder("safe", &l2) == HD_OK);
+    hd_unlock_folder(l2);
+
+    /* escaping: control bytes of input never reach a terminal raw */
+    char esc[32];
+    hd_escape_into(esc, sizeof esc, "a\x1b[31mb\n\x7f");
+    CHECK(strcmp(esc, "a\\x1b[31mb\\x0a\\x7f") == 0);
+    hd_escape_into(esc, 6, "ab\x1b");
+    CHECK(strcmp(esc, "ab") == 0); /* cut at a whole character */
+    hd_fail(HD_ERR_FORMAT, "x\x1by");
+    CHECK(strcmp(hd_error(), "x\\x1by") == 0);
+}
+
 static void test_path_stems(void)
 {
     const char *cases[][3] = {{"dir/a.b/face.png", "face", "dir/a.b/face.mask.png"},
@@ -92,5 +197,6 @@ int main(void)
     test_rng();
     test_sizes_and_arena();
     test_atomic_file();
+    test_atomic_safety();
     return test_summary("core");
 }

@@ -326,17 +326,27 @@ static void test_light_files(void)
     CHECK(hd_light_read("loose.txt", light) == HD_OK);
     for (int k = 0; k < 9; k++) CHECK(light[k] == k + 1);
     /* round trip is exact */
+    char *data;
+    size_t size;
     hd_rng r;
     hd_rng_seed(&r, 5, 5);
     for (int trial = 0; trial < 20; trial++) {
-        for (int k = 0; k < 9; k++) light[k] = hd_rng_normal(&r) * powf(10.0f, hd_rng_range(&r, -8, 8));
+        for (int k = 0; k < 9; k++) light[k] = hd_rng_normal(&r) * powf(10.0f, hd_rng_range(&r, -8, 5));
         CHECK(hd_light_write("round.txt", light) == HD_OK);
         CHECK(hd_light_read("round.txt", back) == HD_OK);
         CHECK(memcmp(light, back, sizeof light) == 0);
     }
+    /* beyond HD_LIGHT_MAX_COEFF (a shading that could overflow): refused on reading and writing */
+    const char *huge = "3.4e38 0 0 0 0 0 0 0 0\n";
+    write_text("huge.txt", huge, strlen(huge));
+    CHECK(hd_light_read("huge.txt", back) == HD_ERR_RANGE && strstr(hd_error(), "huge.txt:1: '3.4e38'") != NULL);
+    const char *edge = "1e6 -1e6 0 0 0 0 0 0 0\n";
+    write_text("edge.txt", edge, strlen(edge));
+    CHECK(hd_light_read("edge.txt", back) == HD_OK && back[0] == 1e6f && back[1] == -1e6f);
+    light[4] = 2e6f;
+    CHECK(hd_light_write("huge_out.txt", light) == HD_ERR_RANGE);
+    CHECK(hd_read_file("huge_out.txt", 4096, &data, &size) == HD_ERR_IO);
     /* one number per line */
-    char *data;
-    size_t size;
     CHECK(hd_read_file("round.txt", 4096, &data, &size) == HD_OK);
     int lines = 0;
     for (size_t i = 0; i < size; i++) lines += data[i] == '\n';

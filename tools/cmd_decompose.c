@@ -5,8 +5,10 @@
  * NAME.face<k>.*, the reconstructions blended into NAME.recon.png, and the full-resolution maps
  * in the photo's frame NAME.photo.*.
  * decompose_textures is the texture-in, texture-out core; everything else is file handling. One
- * unreadable image (or a photo without a face) is reported and skipped; the exit status is 1 at the
- * end if any failed. */
+ * unreadable image (or a photo without a face, or a non-finite result) is reported and skipped; the
+ * exit status is 1 at the end if any failed. An image's files are written as a set (all or none);
+ * the first failure to write (a full disk, an unwritable folder) stops the run. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "batch.h"
@@ -111,7 +113,44 @@ static char *out_path(const job *j, const char *suffix)
     return p;
 }
 
-/* Writes every output of one image; mask is at the decomposition's size. */
+/* Creates an output folder and, the first time it comes up, removes the temporaries that killed
+ * runs left in it. A failure to create it is a write failure (*write_failed). */
+static hd_status prepare_folder(const char *dir, char **cleaned, int *write_failed)
+{
+    if (*cleaned && strcmp(*cleaned, dir) == 0) return HD_OK;
+    hd_status st = hd_mkdirs(dir);
+    if (st != HD_OK) {
+        *write_failed = 1;
+        return st;
+    }
+    hd_remove_stale_temporaries(dir);
+    free(*cleaned);
+    size_t n = strlen(dir) + 1;
+    if ((*cleaned = malloc(n)) != NULL) memcpy(*cleaned, dir, n);
+    return HD_OK;
+}
+
+/* HD_OK when every map and the light of d are finite; else the reason names the input and the
+ * stage (nothing of the image is written then). */
+static hd_status check_finite(const job *j, const hd_decomposition *d)
+{
+    char what[1200];
+    const hd_image *maps[] = {&d->albedo, &d->shading, &d->normal, &d->reconstruction};
+    static const char *const names[] = {"albedo", "shading", "normal", "reconstruction"};
+    for (int k = 0; k < 4; k++) {
+        snprintf(what, sizeof what, "%s: the network's %s of %s%s", j->image, names[k], j->name,
+                 " (nothing of it written)");
+        if (hd_image_check_finite(maps[k], what) != HD_OK) return HD_ERR_NUMERIC;
+    }
+    for (int k = 0; k < HD_SH_COEFFS; k++)
+        if (!isfinite(d->light[k]))
+            return hd_fail(HD_ERR_NUMERIC, "%s: the network's light coefficient %d is not finite (nothing of it written)",
+                           j->image, k);
+    return HD_OK;
+}
+
+/* Writes every output of one image (inside the caller's output set); mask is at the
+ * decomposition's size. */
 static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd_image *mask, const hd_sheet *sheet)
 {
     static const char *const suffix[] = {".albedo.png", ".shading.png", ".shading.pfm", ".normal.png",
@@ -119,7 +158,8 @@ static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd
     enum { N_OUT = 7 };
     char *path[N_OUT] = {0};
     hd_image half = {0}, rgb = {0};
-    hd_status st = hd_mkdirs(j->out_dir);
+    hd_status st = check_finite(j, d);
+    if (st == HD_OK) st = hd_mkdirs(j->out_dir);
     for (int k = 0; k < N_OUT && st == HD_OK; k++)
         if (!(path[k] = out_path(j, suffix[k]))) st = HD_ERR_NOMEM;
     if (st == HD_OK) st = hd_image_write_png(path[0], &d->albedo, 8);
@@ -174,10 +214,12 @@ static hd_status write_photo_maps(const job *j, const hd_photo_maps *m)
 
 /* One photo: hd_decompose_photo_maps, then the outputs of each face k as out_dir/name.face<k>.* (the
  * face's mask resized to the model's size for the normals), the photo with the reconstructions
- * blended in as out_dir/name.recon.png, and the full-resolution maps. *nfaces gets the faces. */
-static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job *j, int *nfaces)
+ * blended in as out_dir/name.recon.png, and the full-resolution maps, all as one output set.
+ * *nfaces gets the faces; *write_failed is set when a write failed (HD_ERR_IO). */
+static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job *j, int *nfaces, int *write_failed)
 {
     *nfaces = 0;
+    *write_failed = 0;
     hd_image photo = {0};
     hd_photo_maps m;
     hd_status st = hd_image_read_as(j->image, 3, &photo);
@@ -189,6 +231,7 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
                                                j->image)
                                      : hd_fail(st, "%s: %s", j->image, hd_error());
     const int size = hd_model_size(model);
+    hd_atomic_set_begin(); /* the photo's files appear together or not at all */
     for (int k = 0; k < m.nfaces && st == HD_OK; k++) {
         char name[64];
         snprintf(name, sizeof name, ".face%d", k);
@@ -214,6 +257,12 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
         free(path);
     }
     if (st == HD_OK) st = write_photo_maps(j, &m);
+    if (st == HD_ERR_IO) *write_failed = 1;
+    hd_status set_end = hd_atomic_set_end(st == HD_OK);
+    if (st == HD_OK && set_end != HD_OK) {
+        st = set_end;
+        *write_failed = 1;
+    }
     hd_photo_maps_free(&m);
     return st;
 }
@@ -251,8 +300,10 @@ int cmd_decompose(int argc, char **argv)
         "gets the same files as NAME.face<k>.*, NAME.recon.png is the photo with each face's\n"
         "reconstruction warped back and Poisson-blended in, and NAME.photo.{albedo,shading,normal,mask}.png\n"
         "(and NAME.photo.shading.pfm) are the maps warped back into the photo's frame at its full size.\n"
-        "An unreadable image, or a photo without a face, is reported and skipped; the exit status is then\n"
-        "1, after every other image is written.",
+        "An unreadable image, a photo without a face or a non-finite result is reported and skipped (none\n"
+        "of its files is written); the exit status is then 1, after every other image is written. An\n"
+        "image's files appear together or not at all; the first failed write (a full disk, an unwritable\n"
+        "folder) stops the run.",
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -268,7 +319,8 @@ int cmd_decompose(int argc, char **argv)
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
     cJSON *results = json ? cJSON_CreateArray() : NULL;
-    int failed = 0, written = 0, textures = 0, no_face = 0, faces = 0, rc = CLI_EXIT_OK, inputs = 0;
+    int failed = 0, written = 0, textures = 0, no_face = 0, faces = 0, rc = CLI_EXIT_OK, inputs = 0, stop = 0;
+    char *cleaned = NULL; /* the last output folder cleared of stale temporaries */
     hd_status st = cli_inputs_collect(&in, pos, npos);
     for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], out);
     free(pos);
@@ -288,15 +340,22 @@ int cmd_decompose(int argc, char **argv)
             jobs.v[textures++] = jobs.v[i]; /* keep the textures, in order, at the front */
             continue;
         }
-        int nfaces = 0;
+        int nfaces = 0, write_failed = 0;
+        if (stop) { /* a write failed before: the rest is not run */
+            free(jobs.v[i].image);
+            free(jobs.v[i].out_dir);
+            free(jobs.v[i].name);
+            continue;
+        }
         st = aligner ? HD_OK : hd_aligner_load(&aligner);
         if (st == HD_OK) hd_aligner_set_min_score(aligner, min_score);
-        if (st == HD_OK) st = hd_mkdirs(jobs.v[i].out_dir);
-        if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces);
+        if (st == HD_OK) st = prepare_folder(jobs.v[i].out_dir, &cleaned, &write_failed);
+        if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces, &write_failed);
         if (st != HD_OK) {
             cli_report("decompose"); /* the reason names the photo */
             if (st == HD_ERR_NOTFOUND) no_face++;
             else failed++;
+            stop = write_failed;
         } else {
             if (!quiet && !json)
                 printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces,
@@ -318,7 +377,7 @@ int cmd_decompose(int argc, char **argv)
         free(jobs.v[i].image);
         free(jobs.v[i].out_dir);
         free(jobs.v[i].name);
-        if (show) cli_progress_update(&progress, written + failed + no_face, NULL);
+        if (show && !stop) cli_progress_update(&progress, written + failed + no_face, NULL);
     }
     const int photos_seen = jobs.count - textures;
     jobs.count = textures;
@@ -333,7 +392,7 @@ int cmd_decompose(int argc, char **argv)
         rc = CLI_EXIT_FAIL;
         goto done;
     }
-    for (int start = 0; start < jobs.count; start += batch) {
+    for (int start = 0; start < jobs.count && !stop; start += batch) {
         int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
         const char *status[256] = {0};
         for (int i = start; i < end; i++) {
@@ -354,9 +413,22 @@ int cmd_decompose(int argc, char **argv)
             failed += n;
         } else {
             for (int k = 0; k < n; k++) {
-                if (write_outputs(&jobs.v[index[k]], &d[k], &mask[k], &sheets[k]) != HD_OK) {
+                const job *j = &jobs.v[index[k]];
+                int write_failed = 0;
+                st = stop ? HD_OK : prepare_folder(j->out_dir, &cleaned, &write_failed);
+                if (!stop && st == HD_OK) {
+                    hd_atomic_set_begin(); /* the image's files appear together or not at all */
+                    st = write_outputs(j, &d[k], &mask[k], &sheets[k]);
+                    hd_status set_end = hd_atomic_set_end(st == HD_OK);
+                    write_failed = st == HD_ERR_IO || (st == HD_OK && set_end != HD_OK);
+                    if (st == HD_OK) st = set_end;
+                }
+                if (stop) {
+                    status[index[k] - start] = "not_run"; /* a write failed before */
+                } else if (st != HD_OK) {
                     cli_report("decompose");
                     failed++;
+                    stop = write_failed;
                 } else {
                     written++;
                     faces++;
@@ -381,9 +453,11 @@ int cmd_decompose(int argc, char **argv)
             free(stem);
             cJSON_AddItemToArray(results, o);
         }
-        if (show) cli_progress_update(&progress, photos_seen + end, NULL);
+        if (show && !stop) cli_progress_update(&progress, photos_seen + end, NULL);
     }
-    if (show) cli_progress_finish(&progress, inputs, NULL);
+    if (show && !stop) cli_progress_finish(&progress, inputs, NULL);
+    if (stop)
+        fprintf(stderr, "hdnet decompose: stopped at the first write failure (the images after it were not decomposed)\n");
     free(tex), free(mask), free(d), free(sheets), free(index);
     cli_summary sum = {inputs, written, no_face, failed, faces, 0.0};
     if (cli_summary_reduce(&sum, t0) != HD_OK) cli_report("decompose"); /* the job's counts, on every rank */
@@ -397,6 +471,7 @@ int cmd_decompose(int argc, char **argv)
     rc = cli_summary_status(&sum);
     if (json) rc = cli_json_print_run("decompose", &results, &in, &sum, out, rc);
 done:
+    free(cleaned);
     cJSON_Delete(results);
     if (model) hd_model_free(model);
     hd_aligner_free(aligner);

@@ -84,8 +84,18 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
         if (st == HD_OK) st = hd_apply_texture(run->model, &tex, &mask, &run->request, &res);
         r->faces = 1;
     }
-    for (int i = 0; i < res.count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &res.relit[i], r);
-    if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &res.delit, res.relit, res.count);
+    for (int i = 0; i < res.count && st == HD_OK; i++) {
+        char what[1200];
+        snprintf(what, sizeof what, "%s: the relit result%s (nothing written)", in->path, run->all ? " of a preset" : "");
+        st = hd_image_check_finite(&res.relit[i], what);
+    }
+    if (st == HD_OK) {
+        hd_atomic_set_begin(); /* the relit pictures and the sheet appear together or not at all */
+        for (int i = 0; i < res.count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &res.relit[i], r);
+        if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &res.delit, res.relit, res.count);
+        hd_status set_end = hd_atomic_set_end(st == HD_OK);
+        if (st == HD_OK) st = set_end;
+    }
     hd_apply_result_free(&res);
     hd_image_free(&tex);
     hd_image_free(&mask);
@@ -226,6 +236,13 @@ int cmd_relight(int argc, char **argv)
         rc = cli_report("relight");
         goto done;
     }
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < HD_SH_COEFFS; k++)
+            if (!(fabsf(lights[0].sh[c][k]) <= HD_LIGHT_MAX_COEFF)) {
+                cli_usage_error(&spec, "the light's coefficient %d (%g) is beyond %g: its shading could overflow", k,
+                                (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
+                goto done;
+            }
     if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
         if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
             cli_usage_error(&spec, "a clip takes one light, grey (no --preset all, no --sheet, no colour)");

@@ -5,6 +5,7 @@
 #include <string.h>
 #include <strings.h>
 #include "cli.h"
+#include "hdnet_tool.h"
 
 CLI_COMMAND("render", cmd_render, "render albedo x shading(normal, light) into an image")
 
@@ -86,7 +87,18 @@ int cmd_render(int argc, char **argv)
     for (int c = 0; c < 3; c++)
         for (size_t p = 0; p < npix; p++) image.data[c * npix + p] = albedo.data[c * npix + p] * shading.data[p];
 
-    hd_status st = hd_image_write_picture(out, &image); /* PNG, JPEG or PFM by extension */
+    /* a non-finite result (an albedo PFM of huge values) is an error naming the inputs; the image
+     * and the shading are written as a set, both or neither */
+    char what[1400];
+    snprintf(what, sizeof what, "%s: the render of albedo %s under light %s (nothing written)", out, albedo_path, light_path);
+    hd_status st = hd_image_check_finite(&image, what);
+    if (st == HD_OK) {
+        snprintf(what, sizeof what, "%s: the shading of %s under light %s (nothing written)",
+                 shading_path ? shading_path : out, normal_path, light_path);
+        st = hd_image_check_finite(&shading, what);
+    }
+    hd_atomic_set_begin();
+    if (st == HD_OK) st = hd_image_write_picture(out, &image); /* PNG, JPEG or PFM by extension */
     if (st == HD_OK && shading_path) {
         if (ends_with_pfm(shading_path)) {
             st = hd_image_write_pfm(shading_path, &shading);
@@ -95,6 +107,8 @@ int cmd_render(int argc, char **argv)
             st = hd_image_write_png(shading_path, &shading, 16);
         }
     }
+    hd_status set_end = hd_atomic_set_end(st == HD_OK);
+    if (st == HD_OK) st = set_end;
     rc = st == HD_OK ? CLI_EXIT_OK : cli_report("render");
     if (st == HD_OK && !quiet) printf("wrote %s%s%s\n", out, shading_path ? " and " : "", shading_path ? shading_path : "");
 done:

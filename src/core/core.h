@@ -15,6 +15,9 @@ void hd_clear_error(void);
 /* Applies hd_set_threads' count to the calling thread's OpenMP setting (entry points that run
  * parallel loops call it first, so a count set in one thread holds in all). */
 void hd_apply_threads(void);
+/* Copies src into dst (size bytes, always terminated, cut at a whole character) with bytes below
+ * 0x20 and 0x7f written as "\xNN": for printing text that came from input (hd_fail does it). */
+void hd_escape_into(char *dst, size_t size, const char *src);
 
 /* ---- checked size arithmetic: return 0 on overflow (and leave *out untouched). */
 int hd_mul_size(size_t a, size_t b, size_t *out);
@@ -51,20 +54,43 @@ float hd_rng_normal(hd_rng *r);
 /* Uniform integer in [0, n). */
 uint32_t hd_rng_below(hd_rng *r, uint32_t n);
 
-/* ---- atomic files: write to "<path>.tmp.<pid>", fsync, rename over path. */
+/* ---- atomic files (atomic.c): write to "<path>.tmp.<pid>.<16 random hex digits>" in the same
+ * folder, created O_CREAT|O_EXCL|O_NOFOLLOW with mode 0644 under the umask; fsync; rename over
+ * path. A symlink at path is refused (never written through). */
+#define HD_TMP_INFIX ".tmp."
 typedef struct hd_atomic_file {
     FILE *f;
     char *path, *tmp_path;
+    void *sink; /* the descriptor and the first write error */
 } hd_atomic_file;
 hd_status hd_atomic_open(hd_atomic_file *af, const char *path);
 /* Flushes, fsyncs (unless durable writes are off: hd_set_durable_writes) and renames; on any
- * failure removes the temporary file. Either way the rename makes the file appear whole or not
- * at all. */
+ * failure removes the temporary file and the reason carries the errno's text (e.g. "No space left
+ * on device"). Either way the rename makes the file appear whole or not at all. Inside an output
+ * set the rename waits for hd_atomic_set_end. */
 hd_status hd_atomic_commit(hd_atomic_file *af);
 /* As hd_atomic_commit, but always fsyncs: for checkpoints and models. */
 hd_status hd_atomic_commit_durable(hd_atomic_file *af);
 /* Abandons the write: closes and removes the temporary file. */
 void hd_atomic_abort(hd_atomic_file *af);
+/* The errno of the first failed write to af->f (EIO if none was recorded). */
+int hd_atomic_errno(const hd_atomic_file *af);
+/* HD_OK unless path is a symbolic link (then a reason naming it). */
+hd_status hd_check_not_symlink(const char *path);
+/* Opens path for appending (created 0644 under the umask), never through a symlink; NULL with a
+ * reason on failure. */
+FILE *hd_open_append(const char *path);
+/* Output sets (this thread): after begin, commits write and close their temporaries but defer
+ * the renames; end(1) renames them all (on a failure part way it removes the set's files already
+ * renamed and returns the reason), end(0) removes every temporary. */
+void hd_atomic_set_begin(void);
+hd_status hd_atomic_set_end(int commit);
+/* Removes the temporaries in dir left by processes that no longer run; returns how many. */
+int hd_remove_stale_temporaries(const char *dir);
+/* Takes an exclusive flock on dir/.hdnet.lock (without waiting): a second writer gets a reason
+ * saying another hdnet process holds the folder. The lock ends with the process or at unlock. */
+hd_status hd_lock_folder(const char *dir, int *fd);
+void hd_unlock_folder(int fd);
 /* Reads a whole file (at most max_bytes) into a NUL-terminated buffer. */
 hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size);
 
@@ -72,6 +98,8 @@ hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *
 double hd_seconds(void); /* monotonic */
 
 /* ---- paths */
+/* A malloc'ed copy of s (NULL with reason on failure). */
+char *hd_strdup(const char *s);
 /* Joins dir and name with one '/'; result is malloc'ed (NULL with reason on failure). */
 char *hd_path_join(const char *dir, const char *name);
 /* Creates a directory and its parents (like mkdir -p). */

@@ -1,4 +1,5 @@
-/* error.c: the thread-local failure reason behind hd_error(), and the library-wide thread count. */
+/* error.c: the thread-local failure reason behind hd_error() (control bytes of input quoted in it
+ * are escaped as \xNN, so a reason never drives the terminal), and the library-wide thread count. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -15,8 +16,29 @@ hd_status hd_fail(hd_status code, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
-    memcpy(error_text, text, sizeof text);
+    hd_escape_into(error_text, sizeof error_text, text);
     return code;
+}
+
+void hd_escape_into(char *dst, size_t size, const char *src)
+{
+    static const char hex[] = "0123456789abcdef";
+    size_t k = 0;
+    if (size == 0) return;
+    for (const unsigned char *s = (const unsigned char *)src; *s; s++) {
+        int control = *s < 0x20 || *s == 0x7f;
+        size_t need = control ? 4 : 1;
+        if (k + need >= size) break;
+        if (control) {
+            dst[k++] = '\\';
+            dst[k++] = 'x';
+            dst[k++] = hex[*s >> 4];
+            dst[k++] = hex[*s & 15];
+        } else {
+            dst[k++] = (char)*s;
+        }
+    }
+    dst[k] = '\0';
 }
 
 void hd_clear_error(void) { error_text[0] = '\0'; }

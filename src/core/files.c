@@ -1,4 +1,4 @@
-/* files.c: atomic writes (temporary file, fsync, rename), whole-file reads and path helpers. */
+/* files.c: whole-file reads and path helpers (atomic writes: atomic.c). */
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
@@ -6,82 +6,13 @@
 #include <unistd.h>
 #include "core/core.h"
 
-static char *dup_string(const char *s)
+char *hd_strdup(const char *s)
 {
     size_t n = strlen(s) + 1;
     char *d = hd_malloc(n);
     if (d) memcpy(d, s, n);
     return d;
 }
-
-hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
-{
-    memset(af, 0, sizeof *af);
-    size_t n = strlen(path) + 64;
-    af->path = dup_string(path);
-    af->tmp_path = hd_malloc(n);
-    if (!af->path || !af->tmp_path) {
-        free(af->path);
-        free(af->tmp_path);
-        return HD_ERR_NOMEM;
-    }
-    snprintf(af->tmp_path, n, "%s.tmp.%ld", path, (long)getpid());
-    af->f = fopen(af->tmp_path, "wb");
-    if (!af->f) {
-        hd_status st = hd_fail(HD_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
-        free(af->path);
-        free(af->tmp_path);
-        af->path = af->tmp_path = NULL;
-        return st;
-    }
-    return HD_OK;
-}
-
-static void atomic_release(hd_atomic_file *af)
-{
-    free(af->path);
-    free(af->tmp_path);
-    af->path = af->tmp_path = NULL;
-    af->f = NULL;
-}
-
-void hd_atomic_abort(hd_atomic_file *af)
-{
-    if (af->f) fclose(af->f);
-    if (af->tmp_path) remove(af->tmp_path);
-    atomic_release(af);
-}
-
-static int durable_writes = 1;
-
-void hd_set_durable_writes(int on) { durable_writes = on != 0; }
-
-static hd_status atomic_commit(hd_atomic_file *af, int sync)
-{
-    int failed = ferror(af->f) || fflush(af->f) != 0 || (sync && fsync(fileno(af->f)) != 0);
-    int err = errno;
-    if (fclose(af->f) != 0 && !failed) {
-        failed = 1;
-        err = errno;
-    }
-    af->f = NULL;
-    if (!failed && rename(af->tmp_path, af->path) != 0) {
-        failed = 1;
-        err = errno;
-    }
-    if (failed) {
-        hd_status st = hd_fail(HD_ERR_IO, "%s: write failed: %s", af->path, strerror(err));
-        remove(af->tmp_path);
-        atomic_release(af);
-        return st;
-    }
-    atomic_release(af);
-    return HD_OK;
-}
-
-hd_status hd_atomic_commit(hd_atomic_file *af) { return atomic_commit(af, durable_writes); }
-
-hd_status hd_atomic_commit_durable(hd_atomic_file *af) { return atomic_commit(af, 1); }
 
 hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *size)
 {
@@ -181,7 +112,7 @@ int hd_is_dir(const char *path)
 
 hd_status hd_mkdirs(const char *path)
 {
-    char *p = dup_string(path);
+    char *p = hd_strdup(path);
     if (!p) return HD_ERR_NOMEM;
     for (char *s = p + 1;; s++) {
         if (*s == '/' || *s == '\0') {

@@ -37,6 +37,23 @@ void hd_image_free(hd_image *img)
     memset(img, 0, sizeof *img);
 }
 
+static long long max_pixels_set; /* 0: HDNET_MAX_PIXELS or the default */
+
+void hd_set_max_pixels(long long pixels) { max_pixels_set = pixels > 0 ? pixels : 0; }
+
+long long hd_max_pixels(void)
+{
+    if (max_pixels_set > 0) return max_pixels_set;
+    const char *env = getenv("HDNET_MAX_PIXELS");
+    if (env && *env) {
+        char *end = NULL;
+        errno = 0;
+        long long v = strtoll(env, &end, 10);
+        if (end != env && *end == '\0' && errno == 0 && v > 0) return v;
+    }
+    return HD_DEFAULT_MAX_PIXELS;
+}
+
 hd_status hd_image_check_dims(const char *path, long width, long height, int channels)
 {
     if (width <= 0 || height <= 0)
@@ -44,11 +61,26 @@ hd_status hd_image_check_dims(const char *path, long width, long height, int cha
     if (width > HD_IMAGE_MAX_SIDE || height > HD_IMAGE_MAX_SIDE)
         return hd_fail(HD_ERR_RANGE, "%s: image size %ldx%ld exceeds the limit of %d per side", path,
                        width, height, HD_IMAGE_MAX_SIDE);
+    long long limit = hd_max_pixels();
+    if ((long long)width * height > limit)
+        return hd_fail(HD_ERR_RANGE, "%s: image size %ldx%ld (%lld pixels) exceeds the limit of %lld pixels (raise it with "
+                       "HDNET_MAX_PIXELS)", path, width, height, (long long)width * height, limit);
     size_t n;
     if (!hd_mul3_size((size_t)width, (size_t)height, (size_t)channels, &n) ||
         !hd_mul_size(n, sizeof(float), &n))
         return hd_fail(HD_ERR_RANGE, "%s: image size %ldx%ldx%d overflows", path, width, height, channels);
     return HD_OK;
+}
+
+hd_status hd_image_check_finite(const hd_image *img, const char *what)
+{
+    size_t plane = (size_t)img->width * img->height, n = plane * img->channels, bad = 0, first = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(img->data[i]) && bad++ == 0) first = i;
+    if (!bad) return HD_OK;
+    size_t c = first / plane, y = first % plane / img->width, x = first % img->width;
+    return hd_fail(HD_ERR_NUMERIC, "%s: %zu of %zu samples are not finite (first at channel %zu, x %zu, y %zu)", what,
+                   bad, n, c, x, y);
 }
 
 hd_status hd_image_read_as(const char *path, int channels, hd_image *img)

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include "core/core.h"
 #include "io/image_io.h"
 
@@ -95,7 +96,20 @@ hd_status hd_image_read_pfm(FILE *f, long long file_size, const char *path, hd_i
     }
     int file_little = scale < 0;
     size_t count = (size_t)width * (size_t)height * (size_t)channels; /* checked by check_dims */
-    if ((st = hd_image_alloc(img, (int)width, (int)height, channels)) != HD_OK) goto done;
+    /* the samples must be there before anything is allocated for them */
+    struct stat sb;
+    long here = ftell(f);
+    if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode) && here >= 0 &&
+        (unsigned long long)sb.st_size - (unsigned long long)here < (unsigned long long)count * 4u) {
+        st = hd_fail(HD_ERR_FORMAT, "%s: bad PFM: file is truncated (the header claims %ldx%ld, %zu bytes of samples, "
+                     "the file has %lld bytes after it)", path, width, height, count * 4,
+                     (long long)sb.st_size - here);
+        goto done;
+    }
+    if ((st = hd_image_alloc(img, (int)width, (int)height, channels)) != HD_OK) {
+        st = hd_fail(st, "%s: %s", path, hd_error());
+        goto done;
+    }
     size_t row_count = (size_t)width * channels;
     buf = hd_malloc(row_count * sizeof(float));
     if (!buf) {
@@ -144,6 +158,8 @@ hd_status hd_image_encode_pfm(FILE *out, const char *path, const hd_image *img)
     if (!img || !img->data || (img->channels != 1 && img->channels != 3) || img->width <= 0 ||
         img->height <= 0)
         return hd_fail(HD_ERR_ARG, "%s: PFM holds 1 or 3 channels, not %d", path, img ? img->channels : 0);
+    hd_status fin = hd_image_check_finite(img, path);
+    if (fin != HD_OK) return hd_fail(fin, "%s (not written)", hd_error());
     int width = img->width, height = img->height, channels = img->channels;
     size_t row_count = (size_t)width * channels, plane = (size_t)width * height;
     uint32_t *row = hd_malloc(row_count * sizeof(uint32_t));

@@ -14,6 +14,7 @@
 
 typedef struct png_context {
     FILE *f;
+    FILE *out; /* writing: the stream (a failed write's errno gives the reason) */
     char reason[256];
     int truncated;
 } png_context;
@@ -39,6 +40,21 @@ static void png_on_read(png_structp png, png_bytep data, size_t length)
         ctx->truncated = 1;
         png_error(png, ferror(ctx->f) ? "read error" : "file is truncated");
     }
+}
+
+/* The write callbacks: a failed write says why (the errno's text), not libpng's "Write Error". */
+static void png_on_write(png_structp png, png_bytep data, size_t length)
+{
+    png_context *ctx = png_get_io_ptr(png);
+    errno = 0;
+    if (fwrite(data, 1, length, ctx->out) != length) png_error(png, strerror(errno ? errno : EIO));
+}
+
+static void png_on_flush(png_structp png)
+{
+    png_context *ctx = png_get_io_ptr(png);
+    errno = 0;
+    if (fflush(ctx->out) != 0) png_error(png, strerror(errno ? errno : EIO));
 }
 
 static float png_sample(const png_byte *row, size_t k, int bits)
@@ -161,6 +177,8 @@ hd_status hd_image_encode_png(FILE *out, const char *path, const hd_image *img, 
         return hd_fail(HD_ERR_ARG, "%s: PNG bit depth must be 8 or 16, not %d", path, bits);
     if (effort != HD_PNG_COMPACT && effort != HD_PNG_FAST && effort != HD_PNG_STORE)
         return hd_fail(HD_ERR_ARG, "%s: unknown PNG effort %d", path, (int)effort);
+    hd_status fin = hd_image_check_finite(img, path);
+    if (fin != HD_OK) return hd_fail(fin, "%s (not written)", hd_error());
     static const int color_types[5] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA,
                                        PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGB_ALPHA};
     int channels = img->channels, width = img->width, height = img->height;
@@ -180,7 +198,8 @@ hd_status hd_image_encode_png(FILE *out, const char *path, const hd_image *img, 
         free(row);
         return hd_fail(HD_ERR_IO, "%s: PNG write failed: %s", path, ctx.reason);
     }
-    png_init_io(png, out);
+    ctx.out = out;
+    png_set_write_fn(png, &ctx, png_on_write, png_on_flush);
     png_set_IHDR(png, pinfo, (png_uint_32)width, (png_uint_32)height, bits, color_types[channels],
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     if (effort == HD_PNG_FAST) {

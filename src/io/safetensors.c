@@ -399,6 +399,12 @@ hd_status hd_safetensors_write(const char *path, const hd_tensor *tensors, int c
             status = hd_fail(HD_ERR_ARG, "%s: tensor '%s': no data", path, t->name);
             goto done;
         }
+        for (size_t k = 0; k < floats; k++)
+            if (!isfinite(t->data[k])) {
+                status = hd_fail(HD_ERR_NUMERIC, "%s: not written: tensor '%s' holds a non-finite value at %zu", path,
+                                 t->name, k);
+                goto done;
+            }
         cJSON *entry = cJSON_AddObjectToObject(root, t->name);
         cJSON *shape = cJSON_CreateDoubleArray(dims, t->ndim);
         double offs[2] = {(double)offset, (double)(offset + (uint64_t)floats * 4)};

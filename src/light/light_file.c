@@ -1,6 +1,6 @@
 /* light_file.c: light files (SPEC section 2): text holding exactly 9 finite numbers separated by
  * white space, in DPR's order (DPR's rotate_light_NN.txt load unchanged), or 27 for a coloured
- * light (docs/formats.md). Written one number per
+ * light (docs/formats.md), each of magnitude at most HD_LIGHT_MAX_COEFF. Written one number per
  * line with %.9g (exact for float32), through a temporary file that is renamed. */
 #include <errno.h>
 #include <math.h>
@@ -75,6 +75,12 @@ static hd_status read_numbers(const char *path, float *v, int max, int *count_ou
             free(data);
             return st;
         }
+        if (fabs(d) > HD_LIGHT_MAX_COEFF) {
+            st = hd_fail(HD_ERR_RANGE, "%s:%d: '%s' is out of range for a light coefficient (|c| <= %g: a larger "
+                         "light's shading could overflow)", path, line, tok, (double)HD_LIGHT_MAX_COEFF);
+            free(data);
+            return st;
+        }
         v[count++] = (float)d;
     }
     /* the last line of the file (a final newline does not start a new one) */
@@ -101,7 +107,10 @@ hd_status hd_light_write(const char *path, const float light[HD_SH_COEFFS])
 {
     for (int k = 0; k < HD_SH_COEFFS; k++)
         if (!isfinite(light[k]))
-            return hd_fail(HD_ERR_NUMERIC, "%s: light coefficient %d is not finite", path, k);
+            return hd_fail(HD_ERR_NUMERIC, "%s: light coefficient %d is not finite (not written)", path, k);
+        else if (fabsf(light[k]) > HD_LIGHT_MAX_COEFF)
+            return hd_fail(HD_ERR_RANGE, "%s: light coefficient %d (%g) is beyond %g (not written)", path, k,
+                           (double)light[k], (double)HD_LIGHT_MAX_COEFF);
     hd_atomic_file af;
     hd_status st = hd_atomic_open(&af, path);
     if (st != HD_OK) return st;
@@ -132,7 +141,11 @@ hd_status hd_light_write_rgb(const char *path, const hd_light_rgb *light)
     for (int c = 0; c < 3; c++)
         for (int k = 0; k < HD_SH_COEFFS; k++)
             if (!isfinite(light->sh[c][k]))
-                return hd_fail(HD_ERR_NUMERIC, "%s: light coefficient %d of channel %d is not finite", path, k, c);
+                return hd_fail(HD_ERR_NUMERIC, "%s: light coefficient %d of channel %d is not finite (not written)",
+                               path, k, c);
+            else if (fabsf(light->sh[c][k]) > HD_LIGHT_MAX_COEFF)
+                return hd_fail(HD_ERR_RANGE, "%s: light coefficient %d of channel %d (%g) is beyond %g (not written)",
+                               path, k, c, (double)light->sh[c][k], (double)HD_LIGHT_MAX_COEFF);
     hd_atomic_file af;
     hd_status st = hd_atomic_open(&af, path);
     if (st != HD_OK) return st;

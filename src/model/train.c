@@ -2,9 +2,11 @@
  * the options, a resumed checkpoint or an --init model, read once), the start state, then the loop:
  * the loader fills batch t+1 while step t runs, each step is logged, and every K iterations (and
  * at a stop) the checkpoint, the model, the loss plot and a sample sheet are written. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include "model/train.h"
 #include "model/checkpoint.h"
 #include "model/train_log.h"
@@ -208,6 +210,36 @@ static hd_status save_all(const hd_trainer *t, const run_paths *p, const hd_trai
     return s;
 }
 
+static int all_finite(const float *v, size_t n)
+{
+    int ok = 1;
+    for (size_t i = 0; i < n; i++) ok &= isfinite(v[i]) != 0;
+    return ok;
+}
+
+/* A step whose loss is not finite (as the float32 the model trains in), or that left the weights
+ * or Adam's moments non-finite (a huge gradient overflows the second moment first), stops
+ * training before anything of it is written: loss.csv, the checkpoint and the model keep the last
+ * good state. */
+static hd_status check_step_finite(const hd_trainer *t, const hd_step_result *res, const char *run_dir)
+{
+    int ok = isfinite((float)res->total) && isfinite((float)res->disc);
+    for (int k = 0; k < HD_LOSS_TERMS; k++) ok = ok && isfinite((float)res->terms[k]);
+    if (!ok)
+        return hd_fail(HD_ERR_NUMERIC, "%s: training stopped at iteration %ld: the loss is not finite (total %g, "
+                       "adversarial %g, discriminator %g); nothing of this step was written, the last checkpoint stays",
+                       run_dir, t->iteration, res->total, res->terms[HD_LOSS_ADV], res->disc);
+    size_t n = t->net.table.total, nd = t->net.disc_table.total;
+    ok = all_finite(t->net.params, n) && all_finite(t->adam_m, n) && all_finite(t->adam_v, n);
+    if (ok && nd && t->net.disc_params) ok = all_finite(t->net.disc_params, nd);
+    if (ok && nd && t->disc_adam_m) ok = all_finite(t->disc_adam_m, nd) && all_finite(t->disc_adam_v, nd);
+    if (!ok)
+        return hd_fail(HD_ERR_NUMERIC, "%s: training stopped at iteration %ld: the weights or the optimizer state "
+                       "became not finite (loss %g); nothing of this step was written, the last checkpoint stays",
+                       run_dir, t->iteration, res->total);
+    return HD_OK;
+}
+
 /* Steps until the iteration count, a signal or the time limit. */
 /* Whether any rank was asked to stop (a signal, its time limit): every rank stops at the same
  * iteration, with rank 0's checkpoint. */
@@ -240,6 +272,7 @@ static hd_status run_loop(const hd_train_options *o, hd_trainer *t, hd_loader *l
         s = hd_trainer_step(t, &res, first_step ? o->dump_grads : NULL);
         first_step = 0;
         if (s != HD_OK) return s; /* the last good checkpoint stays as it is */
+        if ((s = check_step_finite(t, &res, o->run_dir)) != HD_OK) return s;
         r->last = res;
         r->iteration = t->iteration;
         r->steps++;
@@ -282,12 +315,21 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
     hd_pair_batch next = {0};
     hd_loader ld = {0};
     hd_status s;
-    if ((s = run_paths_make(&paths, o->run_dir)) != HD_OK || (s = open_data(o, &ds, &src)) != HD_OK ||
-        (o->real_dir && (s = open_real(o, &rds, &real)) != HD_OK) || (s = read_start(o, paths.ckpt, &rs)) != HD_OK || (s = start_trainer(o, &rs, &t)) != HD_OK)
-        goto done;
-    hd_safetensors_free(&rs.st); /* read once: the trainer holds what it needed */
+    int lock_fd = -1, made_samples = 0;
     int writer = o->reducer.ranks <= 1 || o->reducer.rank == 0; /* rank 0 alone writes the run folder */
-    if (writer && ((s = hd_mkdirs(o->run_dir)) != HD_OK || (s = hd_mkdirs(paths.samples)) != HD_OK ||
+    if ((s = run_paths_make(&paths, o->run_dir)) != HD_OK || (s = open_data(o, &ds, &src)) != HD_OK ||
+        (o->real_dir && (s = open_real(o, &rds, &real)) != HD_OK))
+        goto done;
+    /* one writer per run folder; temporaries of killed runs go */
+    if (writer) {
+        if ((s = hd_mkdirs(o->run_dir)) != HD_OK || (s = hd_lock_folder(o->run_dir, &lock_fd)) != HD_OK) goto done;
+        hd_remove_stale_temporaries(o->run_dir);
+        if (hd_is_dir(paths.samples)) hd_remove_stale_temporaries(paths.samples);
+    }
+    if ((s = read_start(o, paths.ckpt, &rs)) != HD_OK || (s = start_trainer(o, &rs, &t)) != HD_OK) goto done;
+    hd_safetensors_free(&rs.st); /* read once: the trainer holds what it needed */
+    made_samples = writer && !hd_is_dir(paths.samples);
+    if (writer && ((s = hd_mkdirs(paths.samples)) != HD_OK ||
                    (s = hd_train_log_open(&log, paths.csv, o->resume, t.iteration)) != HD_OK))
         goto done;
     src.size = real.size = rs.cfg.size;
@@ -312,6 +354,12 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
 done:
     hd_loader_stop(&ld);
     hd_train_log_close(&log);
+    if (writer && s != HD_OK && r->steps == 0 && !o->resume && paths.csv && paths.samples) {
+        /* nothing trained: no header-only loss.csv, no empty samples/ */
+        unlink(paths.csv);
+        if (made_samples) rmdir(paths.samples);
+    }
+    hd_unlock_folder(lock_fd);
     hd_pair_batch_free(&next);
     hd_safetensors_free(&rs.st);
     hd_pair_source_free(&src);

@@ -188,6 +188,7 @@ static void load_batch(hd_loader *L)
     const hd_pair_source *src = L->src;
     L->status = HD_OK;
     L->warnings[0] = '\0';
+    L->warnings_dropped = 0;
     int end = L->count > 0 ? L->first + L->count : L->batch->pairs;
     for (int p = L->count > 0 ? L->first : 0; p < end; p++) {
         hd_rng rng;
@@ -205,9 +206,11 @@ static void load_batch(hd_loader *L)
                 snprintf(L->error, sizeof L->error, "%s", hd_error());
                 return;
             }
-            size_t len = strlen(L->warnings);
-            if (len + 2 < sizeof L->warnings)
-                snprintf(L->warnings + len, sizeof L->warnings - len, "%sskipping a pair: %s", len ? "\n" : "", hd_error());
+            char line[1100];
+            snprintf(line, sizeof line, "%sskipping a pair: %s", L->warnings[0] ? "\n" : "", hd_error());
+            size_t len = strlen(L->warnings), add = strlen(line);
+            if (len + add + 40 < sizeof L->warnings) memcpy(L->warnings + len, line, add + 1); /* room for the count */
+            else L->warnings_dropped++;
         }
     }
 }
@@ -232,6 +235,11 @@ hd_status hd_loader_wait(hd_loader *L, void (*warn)(const char *))
 {
     if (L->running) pthread_join(L->thread, NULL);
     L->running = 0;
+    if (L->warnings_dropped) {
+        size_t len = strlen(L->warnings);
+        snprintf(L->warnings + len, sizeof L->warnings - len, "%s(%d more pair%s skipped)", len ? "\n" : "",
+                 L->warnings_dropped, L->warnings_dropped == 1 ? "" : "s");
+    }
     if (warn && L->warnings[0]) warn(L->warnings);
     if (L->status != HD_OK) return hd_fail(L->status, "%s", L->error);
     return HD_OK;

@@ -65,7 +65,8 @@ typedef struct hd_loader {
     int first, count; /* the slots to fill (count 0: the whole batch) */
     hd_status status;
     char error[512];
-    char warnings[2048];
+    char warnings[2048]; /* whole lines only; the ones that did not fit are counted */
+    int warnings_dropped;
     pthread_t thread;
     int running;
 } hd_loader;

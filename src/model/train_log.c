@@ -166,9 +166,8 @@ hd_status hd_train_log_open(hd_train_log *log, const char *csv_path, int resume,
         csv_header(af.f);
         if ((s = hd_atomic_commit(&af)) != HD_OK) return s;
     }
-    log->csv = fopen(csv_path, "a");
-    if (!log->csv) return hd_fail(HD_ERR_IO, "%s: cannot open for appending", csv_path);
-    return HD_OK;
+    log->csv = hd_open_append(csv_path); /* never through a symlink */
+    return log->csv ? HD_OK : HD_ERR_IO;
 }
 
 hd_status hd_train_log_add(hd_train_log *log, long iteration, const hd_step_result *r, double seconds)

@@ -175,4 +175,19 @@ put("light_inf.light.txt", "\n".join(LIGHT[:6] + ["inf"] + LIGHT[7:]) + "\n")
 put("light_text_in_middle.light.txt", "\n".join(LIGHT[:3] + ["bright"] + LIGHT[3:]) + "\n")
 put("light_empty.light.txt", "")
 
+# ---------------------------------------------------------------- issue 15's audit findings
+
+# a PFM of 84 bytes declaring 16384 x 16384 (within the side limit and, with HDNET_MAX_PIXELS
+# raised, the pixel limit): refused from the file size before 3.2 GB are reserved
+put("pfm_16k_bomb_84_bytes.pfm", b"PF\n16384 16384\n-1.0\n" + bytes(84 - len(b"PF\n16384 16384\n-1.0\n")))
+# a 1-bit gray PNG of 12000 x 9000 zeros (108 megapixels, 14 KB): over the default pixel limit,
+# refused from its header before 432 MB are allocated and the rows inflated
+zero_rows = zlib.compress(b"".join(b"\x00" + bytes((12000 + 7) // 8) for _ in range(9000)), 9)
+put("png_108_megapixels_1bit.png",
+    PNG_SIG + ihdr(12000, 9000, depth=1, ctype=0) + chunk(b"IDAT", zero_rows) + chunk(b"IEND", b""))
+# a light whose shading overflows float (3.4e38 is finite, its shading is not)
+put("light_3e38.light.txt", "\n".join(["3.4e38"] + LIGHT[1:]) + "\n")
+# a terminal escape inside a token: refused, and printed as \x1b
+put("light_escape_sequence.light.txt", "\n".join(LIGHT[:2] + ["\x1b[2J\x1b[31mred"] + LIGHT[3:]) + "\n")
+
 print("wrote %d files into %s" % (len(written), OUT))
