@@ -1,5 +1,6 @@
 # hdnet: plain Makefile. `make` builds libhdnet.a and the hdnet tool; `make test` runs every test;
-# `make check` runs the tests under AddressSanitizer + UndefinedBehaviorSanitizer; `make bench`
+# `make check` runs the tests under AddressSanitizer + UndefinedBehaviorSanitizer; `make fuzz` runs
+# the libFuzzer targets of tests/fuzz/ (FUZZ_SECONDS each); `make bench`
 # prints the benchmark figures; `make demo` runs the main job on the bundled examples.
 
 CC      ?= cc
@@ -18,14 +19,14 @@ all:
 
 # The Debian/Ubuntu packages the build needs (through sudo unless already root).
 DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev \
-        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev libmicrohttpd-dev curl
+        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev libmicrohttpd-dev curl clang libclang-rt-dev libomp-dev
 deps:
 	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
 	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
 	    $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends $(DEPS); fi
 
 clean:
-	rm -rf build build-check build-portable build-tsan hdnet
+	rm -rf build build-check build-portable build-tsan build-fuzz hdnet
 
 # oneDNN is the fast convolution path; `make HD_DNNL=0` builds the portable path only. Unless
 # HD_DNNL is given, it is decided when something is built, not when make reads this file: every
@@ -175,6 +176,26 @@ check:
 	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
 
+# Fault injection (docs/reliability.md): kill -9 at random moments during train, decompose and
+# synth (KILLS rounds), then a full disk (a small tmpfs; skipped with a reason where it cannot be
+# mounted). Minutes, so not part of `make test`; CI runs it under a timeout.
+KILLS ?= 20
+test-kill: hdnet
+	HDNET=$(abspath $(BUILD)/hdnet) KILLS=$(KILLS) sh tests/faults/kill.sh
+	HDNET=$(abspath $(BUILD)/hdnet) sh tests/faults/disk_full.sh
+
+# Fuzzing (tests/fuzz/, docs/reliability.md): every reader of untrusted input under libFuzzer with
+# ASan + UBSan, FUZZ_SECONDS each; exits 1 on any finding. Needs clang, libclang-rt-dev, libomp-dev.
+FUZZ_SECONDS ?= 30
+FUZZ_CFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all
+fuzz: hdnet
+	@command -v clang >/dev/null 2>&1 || { echo "fuzz: clang is not installed (apt-get install clang libclang-rt-dev libomp-dev)"; exit 1; }
+	$(MAKE) BUILD=build-fuzz CC=clang OPT="$(FUZZ_CFLAGS)" build-fuzz/libhdnet.a
+	sh tests/fuzz/run.sh $(abspath build-fuzz) $(abspath $(BUILD)/hdnet) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+print-ldlibs:
+	@echo $(LDFLAGS) $(LDLIBS)
+
 # Data-parallel training on MPI against the single-process run (tests/mpi/train.sh), and the batch
 # commands' split of their inputs across ranks (tests/mpi/batch.sh); needs mpirun and Debian's
 # python3 with numpy. Slow on a busy machine: its own target, which CI calls.
@@ -249,6 +270,6 @@ install: hdnet $(BUILD)/libhdnet.so $(BUILD)/hdnet.1 $(BUILD)/hdnet.bash
 	if [ -n "$(PYDIR)" ]; then install -d $(DESTDIR)$(PYDIR)/hdnet && \
 	    install -m 644 python/hdnet/__init__.py $(DESTDIR)$(PYDIR)/hdnet/__init__.py; fi
 
-.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE test-browser load-test test-deps
+.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE test-browser load-test test-deps fuzz print-ldlibs test-kill
 .SECONDARY:
 endif

@@ -148,4 +148,12 @@ expect 1 $H render --albedo $S.albedo.png --normal $S.normal_gt.png --light esc.
 grep -q 'x1b\[31mred' err.log || fail "the escape byte is not shown as \\x1b: $(cat err.log)"
 if grep -q "$(printf '\033')" err.log; then fail "a raw escape byte reached stderr"; fi
 
+# a tensor name holding an escape sequence (JSON \u001b), listed by `hdnet info`
+header='{"a\u001b[31mred":{"dtype":"F32","shape":[1],"data_offsets":[0,4]}}'
+len=$(printf '%s' "$header" | wc -c)
+{ printf "\\$(printf %03o "$len")"; printf '\0\0\0\0\0\0\0'; printf '%s' "$header"; printf '\0\0\0\0'; } >esc.safetensors
+expect 0 $H info esc.safetensors
+grep -q 'a\\x1b\[31mred' out.log || fail "the tensor name is not shown escaped: $(cat out.log)"
+if grep -q "$(printf '\033')" out.log; then fail "a raw escape byte of a tensor name reached stdout"; fi
+
 echo "reliability_cli: symlinks, non-finite results, bounded memory, stale temporaries, the run lock, escapes: ok"

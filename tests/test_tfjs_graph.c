@@ -425,10 +425,54 @@ static void edit_node(model_writer *w, const char *name, const char *key, const 
     }
 }
 
+/* Issue 15's audit: a few-KB model whose Pad adds 8192 rows and columns on each side of a
+ * (1, 7, 9, 3) input used to reserve 3.2 GB of activations (within the 2^30 elements a tensor may
+ * have); the loader refuses it from the shapes, naming the node. */
+static void test_pad_bomb(model_writer *w)
+{
+    mw_init(w);
+    cJSON *x = mw_node(w, "x", "Placeholder", NULL, NULL, NULL, NULL);
+    cJSON *dim = cJSON_AddArrayToObject(
+        cJSON_AddObjectToObject(cJSON_AddObjectToObject(cJSON_GetObjectItem(x, "attr"), "shape"), "shape"), "dim");
+    const char *sizes[4] = {"-1", "7", "9", "3"};
+    for (int i = 0; i < 4; i++) {
+        cJSON *d = cJSON_CreateObject();
+        cJSON_AddStringToObject(d, "size", sizes[i]);
+        cJSON_AddItemToArray(dim, d);
+    }
+    int spad[2] = {4, 2};
+    float pads[8] = {0, 0, 8192, 8192, 8192, 8192, 0, 0}; /* 806 M floats, 3.2 GB */
+    mw_const(w, "pads", spad, 2, pads, WK_I32);
+    mw_node(w, "bomb", "Pad", "x", "pads", NULL, NULL);
+    mw_write(w, w->bin_len);
+    expect_fail("Pad bomb", HD_ERR_FORMAT, "'bomb'", "more than 64 times the model's input");
+    cJSON_Delete(w->root);
+    /* a pad that fits the cap still loads */
+    mw_init(w);
+    x = mw_node(w, "x", "Placeholder", NULL, NULL, NULL, NULL);
+    dim = cJSON_AddArrayToObject(
+        cJSON_AddObjectToObject(cJSON_AddObjectToObject(cJSON_GetObjectItem(x, "attr"), "shape"), "shape"), "dim");
+    for (int i = 0; i < 4; i++) {
+        cJSON *d = cJSON_CreateObject();
+        cJSON_AddStringToObject(d, "size", sizes[i]);
+        cJSON_AddItemToArray(dim, d);
+    }
+    float small[8] = {0, 0, 8, 8, 8, 8, 0, 0};
+    mw_const(w, "pads", spad, 2, small, WK_I32);
+    mw_node(w, "fine", "Pad", "x", "pads", NULL, NULL);
+    mw_write(w, w->bin_len);
+    hd_tfjs_graph *g = NULL;
+    CHECK(hd_tfjs_load("g.json", &g) == HD_OK);
+    hd_tfjs_free(g);
+    cJSON_Delete(w->root);
+}
+
 static void test_broken(void)
 {
     model_writer *w = calloc(1, sizeof *w);
     hd_tfjs_graph *g = NULL;
+
+    test_pad_bomb(w);
 
     CHECK(hd_tfjs_load("missing.json", &g) == HD_ERR_IO && strstr(hd_error(), "missing.json"));
 

@@ -133,7 +133,9 @@ static int info_safetensors(const char *path, int show, cJSON *j)
         printf("\n");
     }
     for (int i = 0; i < st.count && i < show; i++) {
-        printf("  %s [", st.tensors[i].name);
+        printf("  ");
+        print_escaped(st.tensors[i].name, 200); /* a name may hold any byte: never drive the terminal */
+        printf(" [");
         for (int d = 0; d < st.tensors[i].ndim; d++)
             printf("%s%lld", d ? ", " : "", (long long)st.tensors[i].shape[d]);
         printf("]\n");

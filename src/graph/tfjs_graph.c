@@ -777,9 +777,30 @@ static hd_status shape_placeholder(hd_tfjs_graph *g, tg_node *n, const cJSON *js
  * buffers whose lives do not overlap share memory. The im2col scratch comes first. */
 static size_t buffer_floats(const tg_node *n) { return align_floats(n->out.size ? n->out.size : 1); }
 
+/* Activation caps against the model's declared input size (the Placeholder's floats): no op's
+ * output may exceed TG_OP_CAP times it, nor the whole arena TG_ARENA_CAP times it (the shipped
+ * face models need at most 2.3x for one op and 15x for the arena, im2col scratch included). A
+ * few-KB model cannot make hdnet reserve gigabytes (a Pad of 65536 used to reserve 5.6 GB). */
+#define TG_OP_CAP 64
+#define TG_ARENA_CAP 256
+#define TG_CAP_FLOOR (1u << 16) /* floats always allowed, however small the input */
+
+static size_t capped(size_t input_floats, size_t factor)
+{
+    size_t base = input_floats > TG_CAP_FLOOR ? input_floats : TG_CAP_FLOOR;
+    return base > SIZE_MAX / factor ? SIZE_MAX : base * factor;
+}
+
 static hd_status plan_arena(hd_tfjs_graph *g)
 {
     int nn = g->nnodes;
+    size_t input_floats = g->nodes[g->input].out.size;
+    for (int i = 0; i < nn; i++) {
+        const tg_node *n = &g->nodes[i];
+        if (n->kind != OP_CONST && n->out.size > capped(input_floats, TG_OP_CAP))
+            return NODE_FAIL(g, n, "output of %zu floats is more than %d times the model's input (%zu floats)",
+                             n->out.size, TG_OP_CAP, input_floats);
+    }
     int *owner = hd_malloc((size_t)nn * sizeof *owner), *last = hd_malloc((size_t)nn * sizeof *last);
     size_t *offset = hd_calloc((size_t)nn, sizeof *offset);
     int *live = hd_malloc((size_t)nn * sizeof *live), nlive = 0;
@@ -828,6 +849,11 @@ static hd_status plan_arena(hd_tfjs_graph *g)
         offset[i] = best;
         live[nlive++] = i;
         if (best + size > top) top = best + size;
+    }
+    if (top > capped(input_floats, TG_ARENA_CAP)) {
+        st = hd_fail(HD_ERR_RANGE, "%s: the activations need %zu floats, more than %d times the model's input (%zu floats)",
+                     g->path, top, TG_ARENA_CAP, input_floats);
+        goto done;
     }
     st = hd_arena_init(&g->arena, top * sizeof(float));
     if (st != HD_OK) goto done;

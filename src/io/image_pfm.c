@@ -58,7 +58,6 @@ static int host_little_endian(void)
 
 hd_status hd_image_read_pfm(FILE *f, long long file_size, const char *path, hd_image *img, hd_image_info *info)
 {
-    (void)file_size;
     memset(img, 0, sizeof *img);
     char magic[PFM_TOKEN_MAX], ws[PFM_TOKEN_MAX], hs[PFM_TOKEN_MAX], ss[PFM_TOKEN_MAX];
     int after = 0;
@@ -97,13 +96,11 @@ hd_status hd_image_read_pfm(FILE *f, long long file_size, const char *path, hd_i
     int file_little = scale < 0;
     size_t count = (size_t)width * (size_t)height * (size_t)channels; /* checked by check_dims */
     /* the samples must be there before anything is allocated for them */
-    struct stat sb;
     long here = ftell(f);
-    if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode) && here >= 0 &&
-        (unsigned long long)sb.st_size - (unsigned long long)here < (unsigned long long)count * 4u) {
+    if (file_size >= 0 && here >= 0 && here <= file_size &&
+        (unsigned long long)(file_size - here) < (unsigned long long)count * 4u) {
         st = hd_fail(HD_ERR_FORMAT, "%s: bad PFM: file is truncated (the header claims %ldx%ld, %zu bytes of samples, "
-                     "the file has %lld bytes after it)", path, width, height, count * 4,
-                     (long long)sb.st_size - here);
+                     "the file has %lld bytes after it)", path, width, height, count * 4, file_size - here);
         goto done;
     }
     if ((st = hd_image_alloc(img, (int)width, (int)height, channels)) != HD_OK) {

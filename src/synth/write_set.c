@@ -4,7 +4,9 @@
  *
  * Work goes in blocks of subjects: the block's identities are made in parallel (one per
  * subject), then its images are rendered and written in parallel (one per image). Each image
- * depends only on (seed, subject, image), so the files do not depend on the thread count. */
+ * depends only on (seed, subject, image), so the files do not depend on the thread count. An
+ * image's files are written as a set (all or none), and the temporaries that killed runs left in
+ * a subject folder are removed when it comes up. */
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -157,6 +159,7 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
             snprintf(name, sizeof name, "subject_%04d", s0 + j);
             char *dir = hd_path_join(out, name);
             hd_status e = dir ? hd_mkdirs(dir) : HD_ERR_NOMEM;
+            if (e == HD_OK) hd_remove_stale_temporaries(dir); /* of killed runs */
             if (e == HD_OK) e = hd_synth_subject_make(s, o->seed, s0 + j, &subs[j]);
             if (e != HD_OK) note_error(&fe, e);
             free(dir);
@@ -175,8 +178,13 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg, &f);
                 hd_synth_camera_record rec;
                 if (e == HD_OK) e = hd_synth_camera_apply(&f, &o->camera, o->seed, s0 + j, image, &rec);
-                if (e == HD_OK) e = hd_synth_face_write_effort(dir, name, &f, effort);
-                if (e == HD_OK && rec.applied) e = write_camera_record(dir, name, &rec);
+                if (e == HD_OK) {
+                    hd_atomic_set_begin(); /* the image's files appear together or not at all */
+                    e = hd_synth_face_write_effort(dir, name, &f, effort);
+                    if (e == HD_OK && rec.applied) e = write_camera_record(dir, name, &rec);
+                    hd_status end = hd_atomic_set_end(e == HD_OK);
+                    if (e == HD_OK) e = end;
+                }
                 if (e != HD_OK) note_error(&fe, e);
                 long now;
 #pragma omp atomic capture
