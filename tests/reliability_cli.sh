@@ -27,19 +27,21 @@ expect 0 $H init --width 4 --size 32 --seed 3 -o model.safetensors
 
 # ---------------------------------------------------------------- 1. symlinks
 # A link at the output path itself: refused, the target untouched, the link left as it was.
-for cmd in "light --dir 30,10 -o OUT" "light --show $S.light.txt -o OUT" "light --presets -o OUT" \
-           "init --width 4 --size 32 --seed 1 -o OUT" \
-           "render --albedo $S.albedo.png --normal $S.normal_gt.png --light $S.light.txt -o OUT" \
-           "estimate-light $S.png -m model.safetensors -o OUT" \
-           "relight $S.png --aligned -m model.safetensors --preset 1 -o OUT" \
-           "delight $S.png --aligned -m model.safetensors -o OUT"; do
-    rm -f OUT
-    ln -s target.txt OUT
+for cmd in "light --dir 30,10 -o OUT.txt" "light --show $S.light.txt -o OUT.png" "light --presets -o OUT.png" \
+           "init --width 4 --size 32 --seed 1 -o OUT.safetensors" \
+           "render --albedo $S.albedo.png --normal $S.normal_gt.png --light $S.light.txt -o OUT.png" \
+           "estimate-light $S.png -m model.safetensors -o OUT.txt" \
+           "relight $S.png --aligned -m model.safetensors --preset 1 -o OUT.png" \
+           "delight $S.png --aligned -m model.safetensors -o OUT.png"; do
+    out=$(echo "$cmd" | sed 's/.* -o //')
+    rm -f "$out"
+    ln -s target.txt "$out"
     # shellcheck disable=SC2086
     expect 1 $H $cmd
     grep -q "symbolic link" err.log || fail "'$cmd' through a link: $(cat err.log)"
     untouched "$cmd"
-    [ -L OUT ] || fail "'$cmd' replaced the link"
+    [ -L "$out" ] || fail "'$cmd' replaced the link"
+    rm -f "$out"
 done
 rm -f OUT
 # every file decompose writes for an image, one at a time: the link makes the whole set fail
