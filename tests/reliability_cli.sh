@@ -2,7 +2,7 @@
 # reliability_cli.sh: issue 15's defects, each checked through the tool (docs/reliability.md):
 # symlinks planted at output paths and at the old guessable temporaries are never followed;
 # non-finite results (huge lights, a 3e38 PFM, --w-adv 1e38) give exit 1 and no output; the PFM
-# bomb is refused in bounded memory (ulimit -v); the pixel limit and HDNET_MAX_PIXELS; two trains
+# bomb is refused in bounded memory (ulimit -v, 1 GB); the pixel limit and HDNET_MAX_PIXELS; two trains
 # into one folder; a failed train leaves no header-only loss.csv; stale temporaries of dead
 # processes are removed on start; control bytes of input are printed escaped.
 set -u
@@ -108,7 +108,7 @@ no_file advrun/loss.csv advrun/samples advrun/model.safetensors
 { printf 'PF\n16384 16384\n-1.0\n'; printf '%064d' 0; } >bomb.pfm
 # (under ASan, `make check`, the address-space limit is left out: the sanitizer's shadow memory
 # reserves terabytes of address space; the message is still checked)
-vlimit="ulimit -v 400000 &&"
+vlimit="ulimit -v 1000000 &&"
 [ -n "${HD_CHECK:-}" ] && vlimit=""
 sh -c "$vlimit HDNET_MAX_PIXELS=300000000 exec $H info bomb.pfm" >out.log 2>err.log
 [ $? = 1 ] || fail "PFM bomb: $(cat err.log)"
