@@ -56,6 +56,20 @@ ln -s target.txt shading_link.png
 expect 1 $H render --albedo $S.albedo.png --normal $S.normal_gt.png --light $S.light.txt -o r.png --shading shading_link.png
 untouched "render --shading"
 no_file r.png
+# a video file (the muxer writes into the same kind of temporary): refused through a link
+mkdir -p frames && cp "$S.png" frames/f0.png && cp "$S.png" frames/f1.png
+ln -s target.txt clip_link.mp4
+$H relight frames --fps 5 --preset 1 -m model.safetensors -o clip_link.mp4 >out.log 2>err.log
+if grep -q "no video support" err.log; then
+    echo "reliability_cli: this build has no FFmpeg: the video output's link not tested"
+else
+    grep -q "symbolic link" err.log || fail "relight to a video through a link: $(cat out.log err.log)"
+    untouched "relight -o clip_link.mp4"
+    [ -L clip_link.mp4 ] || fail "the video writer replaced the link"
+    expect 0 $H relight frames --fps 5 --preset 1 -m model.safetensors -o clip.mp4
+    [ -f clip.mp4 ] && [ ! -L clip.mp4 ] || fail "relight -o clip.mp4 wrote no regular file"
+    no_temporaries .
+fi
 # the files of a run folder
 for f in loss.csv model.safetensors checkpoint.safetensors loss.png; do
     rm -rf run && mkdir run && ln -s ../target.txt "run/$f"

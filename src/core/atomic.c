@@ -125,6 +125,12 @@ hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
     return HD_OK;
 }
 
+int hd_atomic_fd(const hd_atomic_file *af)
+{
+    const atomic_sink *sink = af->sink;
+    return sink ? sink->fd : -1;
+}
+
 int hd_atomic_errno(const hd_atomic_file *af)
 {
     const atomic_sink *sink = af->sink;

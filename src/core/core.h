@@ -75,6 +75,9 @@ hd_status hd_atomic_commit_durable(hd_atomic_file *af);
 void hd_atomic_abort(hd_atomic_file *af);
 /* The errno of the first failed write to af->f (EIO if none was recorded). */
 int hd_atomic_errno(const hd_atomic_file *af);
+/* The temporary's descriptor, for a writer that cannot use af->f (the video muxer writes and
+ * seeks on it directly; nothing may be written through af->f then). */
+int hd_atomic_fd(const hd_atomic_file *af);
 /* HD_OK unless path is a symbolic link (then a reason naming it). */
 hd_status hd_check_not_symlink(const char *path);
 /* Opens path for appending (created 0644 under the umask), never through a symlink; NULL with a

@@ -3,16 +3,21 @@
  * the packets of the first audio stream as they are demuxed; the writer encodes with the output
  * container's default video codec (H.264 for .mp4 when libavcodec has an encoder for it, else
  * MPEG-4 part 2) at the source's frame rate, and copies those audio packets in, interleaved, as
- * they are (no re-encoding). The file is written under a temporary name and renamed at the end. */
+ * they are (no re-encoding). The file is written through core's atomic file (an unguessable
+ * temporary created O_EXCL|O_NOFOLLOW beside it, never through a symlink) by a custom AVIOContext
+ * on its descriptor, and renamed into place at the end. */
 #if HD_HAVE_FFMPEG
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
 #include <libavutil/imgutils.h>
+#include <libavutil/mem.h>
 #include <libavutil/opt.h>
 #include <libswscale/swscale.h>
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include "core/core.h"
 #include "video/clip_ffmpeg.h"
@@ -32,7 +37,9 @@ struct hd_av_reader {
 };
 
 struct hd_av_writer {
-    char *path, *tmp;
+    char *path;
+    hd_atomic_file af; /* the temporary the muxer writes into (af.f NULL: none open) */
+    int fd;            /* af's descriptor */
     hd_av_reader *src;
     AVFormatContext *fmt;
     AVCodecContext *enc;
@@ -255,6 +262,40 @@ static hd_status drain_audio(hd_av_writer *w, double until)
     return HD_OK;
 }
 
+/* The muxer's output: plain write() and lseek() on the atomic file's descriptor (the muxers that
+ * go back to patch headers need the seek), so errno's text (a full disk) reaches the message. */
+static int output_write(void *opaque, uint8_t *buf, int size)
+{
+    hd_av_writer *w = opaque;
+    int done = 0;
+    while (done < size) {
+        ssize_t n = write(w->fd, buf + done, (size_t)(size - done));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return AVERROR(n < 0 ? errno : ENOSPC);
+        done += (int)n;
+    }
+    return done;
+}
+
+static int64_t output_seek(void *opaque, int64_t offset, int whence)
+{
+    hd_av_writer *w = opaque;
+    if (whence & AVSEEK_SIZE) {
+        struct stat sb;
+        return fstat(w->fd, &sb) == 0 ? (int64_t)sb.st_size : AVERROR(errno);
+    }
+    off_t at = lseek(w->fd, (off_t)offset, whence & ~AVSEEK_FORCE);
+    return at < 0 ? AVERROR(errno) : (int64_t)at;
+}
+
+/* Frees the custom AVIOContext (and its buffer); the descriptor stays with w->af. */
+static void close_output(hd_av_writer *w)
+{
+    if (!w->fmt->pb) return;
+    av_freep(&w->fmt->pb->buffer);
+    avio_context_free(&w->fmt->pb);
+}
+
 static void writer_free(hd_av_writer *w)
 {
     sws_freeContext(w->sws);
@@ -263,11 +304,11 @@ static void writer_free(hd_av_writer *w)
     av_frame_free(&w->frame);
     avcodec_free_context(&w->enc);
     if (w->fmt) {
-        if (w->fmt->pb) avio_closep(&w->fmt->pb);
+        close_output(w);
         avformat_free_context(w->fmt);
     }
+    if (w->af.f) hd_atomic_abort(&w->af);
     free(w->path);
-    free(w->tmp);
     free(w);
 }
 
@@ -280,14 +321,11 @@ hd_status hd_av_create(const char *path, hd_av_reader *src, int width, int heigh
     if (!w) return HD_ERR_NOMEM;
     hd_status st = HD_OK;
     int err;
-    size_t n = strlen(path) + 16;
     w->path = strdup(path);
-    w->tmp = hd_malloc(n);
-    if (!w->path || !w->tmp) {
+    if (!w->path) {
         st = HD_ERR_NOMEM;
         goto fail;
     }
-    snprintf(w->tmp, n, "%s.tmp%ld", path, (long)getpid());
     w->src = src;
     w->in_width = width;
     w->in_height = height;
@@ -368,10 +406,17 @@ hd_status hd_av_create(const char *path, hd_av_reader *src, int width, int heigh
         st = HD_ERR_NOMEM;
         goto fail;
     }
-    if ((err = avio_open(&w->fmt->pb, w->tmp, AVIO_FLAG_WRITE)) < 0) {
-        st = hd_fail(HD_ERR_IO, "%s: cannot create the file", path);
+    if ((st = hd_atomic_open(&w->af, path)) != HD_OK) goto fail;
+    w->fd = hd_atomic_fd(&w->af);
+    enum { AVIO_BUFFER = 1 << 16 };
+    unsigned char *buf = av_malloc(AVIO_BUFFER);
+    if (buf) w->fmt->pb = avio_alloc_context(buf, AVIO_BUFFER, 1, w, NULL, output_write, output_seek);
+    if (!w->fmt->pb) {
+        av_free(buf);
+        st = HD_ERR_NOMEM;
         goto fail;
     }
+    w->fmt->flags |= AVFMT_FLAG_CUSTOM_IO;
     if ((err = avformat_write_header(w->fmt, NULL)) < 0) {
         st = av_fail(err, path, "cannot write the header");
         goto fail;
@@ -380,11 +425,7 @@ hd_status hd_av_create(const char *path, hd_av_reader *src, int width, int heigh
     *out = w;
     return HD_OK;
 fail:
-    if (w->fmt && w->fmt->pb) {
-        avio_closep(&w->fmt->pb);
-        unlink(w->tmp);
-    }
-    writer_free(w);
+    writer_free(w); /* removes the temporary */
     return st;
 }
 
@@ -432,14 +473,14 @@ hd_status hd_av_finish(hd_av_writer *w, int ok)
             int err = av_write_trailer(w->fmt);
             if (err < 0) st = av_fail(err, w->path, "cannot finish the file");
         }
-        if (st == HD_OK && avio_closep(&w->fmt->pb) < 0) st = hd_fail(HD_ERR_IO, "%s: cannot write", w->path);
-        if (st == HD_OK && rename(w->tmp, w->path) != 0) st = hd_fail(HD_ERR_IO, "%s: cannot rename the finished file", w->path);
+        if (st == HD_OK) {
+            avio_flush(w->fmt->pb);
+            if (w->fmt->pb->error < 0) st = av_fail(w->fmt->pb->error, w->path, "cannot write");
+        }
+        close_output(w);
+        if (st == HD_OK) st = hd_atomic_commit(&w->af); /* fsync (if durable) and rename */
     }
-    if (!ok || st != HD_OK) {
-        if (w->fmt->pb) avio_closep(&w->fmt->pb);
-        unlink(w->tmp);
-    }
-    writer_free(w);
+    writer_free(w); /* removes the temporary unless it was committed */
     return st;
 }
 #else
