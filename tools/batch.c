@@ -301,7 +301,9 @@ int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const
     cli_result r;
     for (int i = 0; i < in->count; i++) {
         memset(&r, 0, sizeof r);
+        hd_take_write_errno();
         hd_status st = fn(ctx, &in->v[i], out, single, &r);
+        const int write_errno = st == HD_OK ? 0 : hd_take_write_errno();
         if (st != HD_OK && show && tty) fprintf(stderr, "\r\033[K"); /* off the progress line */
         if (st == HD_ERR_NOTFOUND) {
             fprintf(stderr, "hdnet %s: %s: no face found%s\n", cmd, in->v[i].path,
@@ -316,6 +318,12 @@ int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const
             fprintf(stderr, "hdnet %s: %s%s%s%s\n", cmd, named ? "" : in->v[i].path, named ? "" : ": ", why,
                     many ? " (skipped)" : "");
             s.failed++;
+            if (hd_write_errno_is_fatal(write_errno)) { /* a full disk, an unwritable folder: all the rest would fail */
+                if (i + 1 < in->count)
+                    fprintf(stderr, "hdnet %s: stopped at the first write failure (%d input%s after it not run)\n", cmd,
+                            in->count - i - 1, in->count - i - 1 == 1 ? "" : "s");
+                break;
+            }
         } else {
             s.done++;
             s.faces += r.faces;

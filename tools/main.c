@@ -1,6 +1,9 @@
 /* main.c: the hdnet command: dispatches `hdnet <command> [options]` to the registered commands. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
 #include "cli.h"
 #include "mpi.h"
 
@@ -26,8 +29,24 @@ static void print_help(FILE *out)
     fprintf(out, "  %-16s %s\n", "-h, --help", "this list");
 }
 
+/* Under an address-space limit (ulimit -v) OpenBLAS's worker threads, started when the library is
+ * loaded, each reserve a 128 MB buffer and retry forever when the reservation fails, so the tool
+ * hung (at exit, or at its first matrix product) under about 700 MB. OpenBLAS reads
+ * OPENBLAS_NUM_THREADS only when it is loaded: under a finite limit, unless the variable is set,
+ * the tool sets it to 1 (no worker thread; hdnet's own loops still use every thread) and starts
+ * itself again. docs/reliability.md section 3 gives the limits that work. */
+static void fit_address_limit(char **argv)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_AS, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY || getenv("OPENBLAS_NUM_THREADS")) return;
+    if (setenv("OPENBLAS_NUM_THREADS", "1", 1) != 0) return;
+    execv("/proc/self/exe", argv);
+    /* no /proc: go on; the limit may still be enough */
+}
+
 int main(int argc, char **argv)
 {
+    fit_address_limit(argv);
     if (argc < 2) {
         print_help(stderr);
         return CLI_EXIT_USAGE;

@@ -57,6 +57,27 @@ static int sink_close(void *cookie)
     return rc;
 }
 
+/* ---- the errno of this thread's last failed output write (hd_take_write_errno) */
+static _Thread_local int last_write_errno;
+
+void hd_note_write_errno(int err)
+{
+    if (err) last_write_errno = err;
+}
+
+int hd_take_write_errno(void)
+{
+    int err = last_write_errno;
+    last_write_errno = 0;
+    return err;
+}
+
+int hd_write_errno_is_fatal(int err)
+{
+    return err == ENOSPC || err == EDQUOT || err == EROFS || err == EACCES || err == EPERM || err == EIO ||
+           err == EFBIG;
+}
+
 static uint64_t random_word(void)
 {
     uint64_t v = 0;
@@ -114,6 +135,7 @@ hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
         }
     }
     if (!af->f) {
+        hd_note_write_errno(err);
         st = hd_fail(HD_ERR_IO, "%s: cannot create: %s", path, strerror(err));
         free(af->path);
         free(af->tmp_path);
@@ -149,7 +171,9 @@ static void atomic_release(hd_atomic_file *af)
 
 void hd_atomic_abort(hd_atomic_file *af)
 {
+    const atomic_sink *sink = af->sink;
     if (af->f) fclose(af->f);
+    if (sink) hd_note_write_errno(sink->err); /* a writer gave up after a failed write */
     if (af->tmp_path) unlink(af->tmp_path);
     atomic_release(af);
 }
@@ -183,6 +207,7 @@ hd_status hd_atomic_set_end(int commit)
                 renamed = i + 1;
                 continue;
             }
+            hd_note_write_errno(errno);
             st = hd_fail(HD_ERR_IO, "%s: write failed: %s", set_v[i].path, strerror(errno));
         }
         unlink(set_v[i].tmp_path);
@@ -237,6 +262,7 @@ static hd_status atomic_commit(hd_atomic_file *af, int sync)
         err = errno;
     }
     if (failed) {
+        hd_note_write_errno(err ? err : EIO);
         hd_status st = hd_fail(HD_ERR_IO, "%s: write failed: %s", af->path, strerror(err ? err : EIO));
         unlink(af->tmp_path);
         atomic_release(af);

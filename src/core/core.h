@@ -88,6 +88,13 @@ FILE *hd_open_append(const char *path);
  * renamed and returns the reason), end(0) removes every temporary. */
 void hd_atomic_set_begin(void);
 hd_status hd_atomic_set_end(int commit);
+/* The errno of this thread's last failed output write (creating a temporary or a folder, writing,
+ * syncing, renaming) since the previous call, 0 if none; the call resets it. A batch stops at the
+ * first one hd_write_errno_is_fatal calls fatal (a full disk or quota, a read-only or unwritable
+ * folder, an I/O error): every later output would fail the same way. */
+int hd_take_write_errno(void);
+int hd_write_errno_is_fatal(int err);
+void hd_note_write_errno(int err);
 /* Removes the temporaries in dir left by processes that no longer run; returns how many. */
 int hd_remove_stale_temporaries(const char *dir);
 /* Takes an exclusive flock on dir/.hdnet.lock (without waiting): a second writer gets a reason

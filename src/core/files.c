@@ -119,6 +119,7 @@ hd_status hd_mkdirs(const char *path)
             char c = *s;
             *s = '\0';
             if (mkdir(p, 0777) != 0 && errno != EEXIST) {
+                hd_note_write_errno(errno);
                 hd_status st = hd_fail(HD_ERR_IO, "%s: cannot create directory: %s", p, strerror(errno));
                 free(p);
                 return st;

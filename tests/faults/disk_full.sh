@@ -1,5 +1,5 @@
 #!/bin/sh
-# disk_full.sh: a full disk (a small tmpfs) under `hdnet decompose`, `synth` and `train`: each stops
+# disk_full.sh: a full disk (a small tmpfs) under `hdnet decompose`, `relight` (a folder), `synth` and `train`: each stops
 # at the first failed write with the errno's text ("No space left on device"), exit 1; decompose
 # does not go on running the network on the remaining images; no temporary and no partial set is
 # left. Needs to mount a tmpfs (root, as in CI): elsewhere it says why and skips. Part of
@@ -37,6 +37,17 @@ for a in $(find "$mnt/dec" -name '*.albedo.png'); do
 done
 rm -rf "$mnt/dec"
 
+# relight on a folder (the batch layer every many-photo command runs on): stops at the first ENOSPC
+expect 1 $H relight data --aligned -m model.safetensors --preset all -o "$mnt/rel"
+grep -q "No space left on device" err.log || fail "relight on a full disk: $(cat err.log)"
+grep -q "stopped at the first write failure" err.log || fail "relight did not stop: $(cat err.log)"
+[ "$(grep -c 'No space left' err.log)" = 1 ] || fail "relight repeated the error: $(cat err.log)"
+[ -z "$(temporaries "$mnt")" ] || fail "relight left temporaries: $(temporaries "$mnt")"
+for a in $(find "$mnt/rel" -name '*.preset0.png'); do
+    [ -f "${a%.preset0.png}.preset6.png" ] || fail "partial set on the full disk: $a without preset6"
+done
+rm -rf "$mnt/rel"
+
 # synth: stops with the errno, no temporaries
 expect 1 $H synth "$mnt/syn" --subjects 20 --per-subject 4 --size 64 --seed 9 --threads 1
 grep -q "No space left on device" err.log || fail "synth on a full disk: $(cat err.log)"
@@ -47,4 +58,4 @@ rm -rf "$mnt/syn"
 expect 1 $H train data -o "$mnt/run" --size 64 --width 4 --batch 1 --threads 1 -q --iters 2 --every 1
 grep -q "No space left on device" err.log || fail "train on a full disk: $(cat err.log)"
 [ -z "$(temporaries "$mnt")" ] || fail "train left temporaries: $(temporaries "$mnt")"
-echo "disk_full: decompose, synth and train stop at the first ENOSPC with its text, nothing half-written"
+echo "disk_full: decompose, relight, synth and train stop at the first ENOSPC with its text, nothing half-written"

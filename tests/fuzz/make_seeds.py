@@ -3,14 +3,15 @@
 
 Usage: python3 tests/fuzz/make_seeds.py HDNET OUTDIR
   HDNET   the built hdnet tool (it makes a tiny synthetic set, a model, an alignment)
-  OUTDIR  gets one folder per target: png jpeg pfm light safetensors model obj warp tfjs
+  OUTDIR  gets one folder per target: png jpeg pfm light safetensors model obj warp tfjs serve
 
 Seeds: the synthetic set's PNGs (8 and 16 bit, RGB and gray), PFM shading and light files at
 32 x 32; a width-4 model from `hdnet init`; the canonical face mesh (whole and cut); a warp file
 from aligning the bundled astronaut photo; a small TF.js graph written here (Conv2D, Relu, Pad,
 MaxPool, Reshape) and the shipped face detector's JSON; every file of tests/data/broken of the
 target's kind; JPEG seeds are re-encodings of the synthetic images (through hdnet's own files,
-so no outside data). The corpora are written fresh each time and never committed.
+so no outside data); for serve, the PNG and JPEG seeds as uploads, JSON lights of every form the
+page sends and query lights. The corpora are written fresh each time and never committed.
 """
 import base64
 import glob
@@ -24,7 +25,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HDNET, OUT = sys.argv[1], sys.argv[2]
-TARGETS = ["png", "jpeg", "pfm", "light", "safetensors", "model", "obj", "warp", "tfjs"]
+TARGETS = ["png", "jpeg", "pfm", "light", "safetensors", "model", "obj", "warp", "tfjs", "serve"]
 
 
 def put(target, name, data):
@@ -80,6 +81,22 @@ def small_graph():
     model = {"format": "graph-model", "modelTopology": {"node": nodes},
              "weightsManifest": [{"paths": ["g.bin"], "weights": weights}]}
     return model, bytes(shard)
+
+
+def serve_seeds():
+    """fuzz_serve: byte 0 picks the part (0 upload, 1 JSON light, 2 query light)."""
+    for t in ("png", "jpeg"):
+        for name in sorted(os.listdir(os.path.join(OUT, t)))[:6]:
+            put("serve", "upload_" + name, b"\x00" + read(os.path.join(OUT, t, name)))
+    bodies = ['{"light": [0.8, -0.2, 0.3, 0.1, 0, 0, 0, 0, 0]}', '{"preset": 3}', '{"preset": 3, "brightness": "free"}',
+              '{"azimuth": 30, "elevation": -10}', '{"azimuth": 30, "elevation": 10, "intensity": 0.9, "ambient": 0.4}',
+              '{"light": [1e38, 0, 0, 0, 0, 0, 0, 0, 0]}', '{"azimuth": 1e300, "elevation": 0}', '[1, 2]']
+    for i, body in enumerate(bodies):
+        put("serve", "json_%d" % i, b"\x01" + body.encode())
+    # present bits: preset, azimuth, elevation, intensity, ambient
+    queries = [(0x01, "4"), (0x06, "30\n-15"), (0x1e, "30\n-15\n0.8\n0.3"), (0x06, "nan\n0"), (0x07, "1\n2\n3")]
+    for i, (bits, text) in enumerate(queries):
+        put("serve", "query_%d" % i, b"\x02" + bytes([bits]) + text.encode())
 
 
 def main():
@@ -143,6 +160,7 @@ def main():
     for group in face.get("weightsManifest", []):
         group["paths"] = ["g.bin"]
     put("tfjs", "blazeface_no_shard", tfjs_input(face, b""))
+    serve_seeds()
     counts = {t: len(os.listdir(os.path.join(OUT, t))) for t in TARGETS}
     print("seeds: " + ", ".join("%s %d" % (t, n) for t, n in counts.items()))
 

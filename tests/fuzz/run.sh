@@ -11,7 +11,7 @@ build=$1 hdnet=$2 seconds=$3
 shift 3
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
-targets=${*:-png jpeg pfm light safetensors model obj warp tfjs}
+targets=${*:-png jpeg pfm light safetensors model obj warp tfjs serve}
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 mkdir -p "$build/fuzz" "$build/findings"
@@ -28,9 +28,11 @@ for t in $targets; do
     model) src=fuzz_safetensors.c defs=-DFUZZ_MODEL ;;
     *) src=fuzz_$t.c defs= ;;
     esac
+    extra= # the serve harness links the two files of tools/serve/ it tests
+    [ "$t" = serve ] && extra="$root/tools/serve/image_memory.c $root/tools/serve/lights.c"
     bin=$build/fuzz/fuzz_$t
     # shellcheck disable=SC2086
-    clang $cflags $defs -o "$bin" "$here/$src" "$build/libhdnet.a" $libs || { failed=1; continue; }
+    clang $cflags $defs -o "$bin" "$here/$src" $extra "$build/libhdnet.a" $libs || { failed=1; continue; }
     corpus=$build/corpus/$t
     mkdir -p "$corpus"
     log=$build/fuzz/$t.log
