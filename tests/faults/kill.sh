@@ -2,7 +2,7 @@
 # kill.sh: kill -9 at random moments during `hdnet train`, `decompose` and `synth` (KILLS rounds in
 # all, 20 by default, spread over the three), then checks what issue 15 promises
 # (docs/reliability.md): right after a kill no image's file set is partial (decompose's seven
-# files, synth's eight), and after the next run of the same command (train --resume, decompose
+# files per texture or face, a photo's maps and recon; synth's eight), and after the next run of the same command (train --resume, decompose
 # and synth again into the same folder) no temporary is left anywhere and every set is whole.
 # Not part of `make test` (it takes minutes): `make test-kill`, which CI runs under a timeout.
 set -u
@@ -19,11 +19,12 @@ random_ms() { echo $(( $1 + $(od -An -N2 -tu2 /dev/urandom | tr -d ' ') % ($2 - 
 # sleep_ms N
 sleep_ms() { sleep "$(awk -v m="$1" 'BEGIN { printf "%.3f", m / 1000 }')"; }
 temporaries() { find "$1" -name '*.tmp.*' | head -5; }
-# whole_sets DIR SUFFIX...: every NAME with one of the files has all of them
+# whole_sets DIR SUFFIX...: every NAME with the first file has all of them (a photo's maps in its
+# frame, NAME.photo.*, are a set of their own)
 whole_sets() {
     dir=$1
     shift
-    for first in $(find "$dir" -name "*$1" | sort); do
+    for first in $(find "$dir" -name "*$1" ! -name "*.photo$1" | sort); do
         stem=${first%"$1"}
         for s in "$@"; do
             [ -f "$stem$s" ] || fail "partial set in $dir: $first without $stem$s"
@@ -31,7 +32,10 @@ whole_sets() {
     done
 }
 synth_set() { whole_sets "$1" .albedo.png .mask.png .normal.png .normal_gt.png .shading.png .shading.pfm .light.txt; }
-decompose_set() { whole_sets "$1" .albedo.png .shading.png .shading.pfm .normal.png .light.txt .recon.png .sheet.png; }
+decompose_set() {
+    whole_sets "$1" .albedo.png .shading.png .shading.pfm .normal.png .light.txt .recon.png .sheet.png
+    whole_sets "$1" .photo.albedo.png .photo.shading.png .photo.shading.pfm .photo.normal.png .photo.mask.png .recon.png
+}
 
 expect 0 $H synth data --subjects 3 --per-subject 3 --size 32 --seed 5 --threads 1
 expect 0 $H init --width 4 --size 32 --seed 2 -o model.safetensors
