@@ -615,7 +615,9 @@ typedef struct hd_eval_report {
 } hd_eval_report;
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
                       void (*warn)(const char *message));
-/* The report as JSON (written atomically). */
+/* The report as JSON: the text (malloc'ed; NULL with the reason set when out of memory), or
+ * written to path atomically. */
+char *hd_eval_report_json(const hd_eval_report *report);
 hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
 
 /* Relighting measured on real photos without ground truth (src/eval/photo_metrics.c, docs/usage.md
@@ -671,6 +673,8 @@ hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligne
 void hd_photo_eval_free(hd_photo_eval *eval);
 /* The median of a metric over a group (HD_PG_*) and the row of its worst photo (-1 if none). */
 hd_status hd_photo_eval_summary(const hd_photo_eval *eval, int group, int metric, double *median, int *worst);
+/* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
+char *hd_photo_eval_json(const hd_photo_eval *eval, const char *rule);
 hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *eval, const char *rule);
 
 /* Relighting against the truth on a paired synthetic set (src/eval/pair_eval.c): image i of each
@@ -693,6 +697,8 @@ typedef struct hd_pair_report {
     long pairs, skipped;
 } hd_pair_report;
 hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *report, void (*warn)(const char *message));
+/* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
+char *hd_pair_report_json(const hd_pair_report *report);
 hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);
 /* SSIM of two pictures of one size (up to 3 channels, clamped to [0, 1]) averaged over the pixels
  * with mask > 0.5 (NULL: all): 1 for equal pictures. NAN only for want of memory. */

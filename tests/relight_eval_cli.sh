@@ -24,7 +24,7 @@ json_num() {
 
 expect 0 "$HDNET" init --width 4 --size 32 --seed 3 -o m.safetensors
 
-expect 0 "$HDNET" eval "$people" --photos -m m.safetensors --json ratio.json
+expect 0 "$HDNET" eval "$people" --photos -m m.safetensors -o ratio.json
 cat out.log
 self=$(json_num ratio.json all self)
 chroma=$(json_num ratio.json all chroma)
@@ -32,7 +32,7 @@ seam=$(json_num ratio.json all seam)
 [ "$self" = "0" ] || fail "self is $self under the ratio rule, expected exactly 0"
 awk -v c="$chroma" -v s="$seam" 'BEGIN { exit !(c <= 10 && s <= 1.5) }' || fail "chroma $chroma or seam $seam over target"
 grep -q '"photo":	"001/neutral"' ratio.json || fail "the JSON does not name the photos"
-expect 0 "$HDNET" eval "$people" --photos -m m.safetensors --rule paper --json paper.json
+expect 0 "$HDNET" eval "$people" --photos -m m.safetensors --rule paper -o paper.json
 pself=$(json_num paper.json all self)
 awk -v s="$pself" 'BEGIN { exit !(s > 0.01) }' || fail "the paper's rule scores self $pself: the measure cannot fail"
 expect_saying 2 "--rule wants" "$HDNET" eval "$people" --photos --rule other
@@ -40,12 +40,15 @@ expect_saying 2 "exclude" "$HDNET" eval "$people" --photos --pairs
 
 # paired synthetic set
 expect 0 "$HDNET" synth syn --subjects 2 --per-subject 2 --size 64 --seed 77
-expect 0 "$HDNET" eval syn --pairs -m m.safetensors --json pairs.json
+expect 0 "$HDNET" eval syn --pairs -m m.safetensors -o pairs.json
 cat out.log
 unchanged=$(awk '$1 == "input" { print $3 }' out.log)
 exact=$(awk '$1 == "exact" && $2 == "decomposition" { print $3 }' out.log)
 awk -v u="$unchanged" -v e="$exact" 'BEGIN { exit !(e < 0.5 * u) }' || fail "exact decomposition MAE $exact is not below half of unchanged $unchanged"
 grep -q '"ssim"' pairs.json || fail "no SSIM in pairs.json"
+# --json: the same document on stdout, instead of the table
+expect 0 "$HDNET" eval syn --pairs -m m.safetensors --json
+cmp -s out.log pairs.json || { diff out.log pairs.json >&2; fail "eval --pairs --json on stdout differs from -o pairs.json"; }
 
 # coloured lights: a 27-number file; a direction with a colour; an environment map (PFM)
 awk 'BEGIN { for (c = 0; c < 3; c++) for (k = 0; k < 9; k++) print (k == 0 ? 2.5 - c : 0) }' >rgb.txt

@@ -46,11 +46,23 @@ for d in set/subject_*; do
         cp "$img" "pred/$s/$n.recon.png"
     done
 done
-expect_saying 0 "coarse normals" "$HDNET" eval set --pred pred --json eval.json
+expect_saying 0 "coarse normals" "$HDNET" eval set --pred pred -o eval.json
+grep -q "^wrote eval.json" out.log || fail "eval -o did not say what it wrote"
 grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.log ||
     { cat out.log >&2; fail "ground truth as a prediction is not a perfect score"; }
 grep -q '"images":	6' eval.json || fail "eval.json lacks the image count"
 grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfect light score"
+# --json prints the same document on stdout (like every command's --json), not the table
+expect 0 "$HDNET" eval set --pred pred --json
+cmp -s out.log eval.json || { diff out.log eval.json >&2; fail "eval --json on stdout differs from eval -o eval.json"; }
+expect_saying 2 "write it to a file with -o eval.json" "$HDNET" eval set --pred pred --json eval.json
+# a flat folder (one subject's images directly in DATA): decompose writes OUT/NAME.*, which is
+# where eval --pred looks for them (the naming rule, docs/usage.md)
+expect 0 "$HDNET" init --width 4 --size 32 --seed 2 -o flat.safetensors
+expect 0 "$HDNET" decompose set/subject_0001 -m flat.safetensors -o flatpred
+exists flatpred/0000.albedo.png flatpred/0001.albedo.png
+expect_saying 0 "coarse normals" "$HDNET" eval set/subject_0001 --pred flatpred --json
+grep -q '"images":	2' out.log || { cat out.log >&2; fail "eval --pred of a flat folder's decomposition did not score its 2 images"; }
 
 # a (random, tiny) model scored on the same set: every column of its row filled, the baselines unchanged
 expect_saying 0 "wrote m.safetensors" "$HDNET" init --width 8 --size 32 --seed 1 -o m.safetensors

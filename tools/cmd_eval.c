@@ -103,8 +103,26 @@ done:
     return rc;
 }
 
+/* --json prints the report's JSON on stdout (instead of the table), -o FILE writes it (atomically):
+ * text is the JSON (taken; NULL: out of memory, the reason set), write its writer's status. */
+typedef struct json_out {
+    int print;       /* --json */
+    const char *out; /* -o FILE */
+    int quiet;
+} json_out;
+
+static int emit_json(const json_out *j, char *text, hd_status written)
+{
+    int rc = text ? CLI_EXIT_OK : cli_report("eval");
+    if (text && j->out && written != HD_OK) rc = cli_report("eval");
+    else if (text && j->out && !j->quiet && !j->print) printf("wrote %s\n", j->out);
+    if (text && j->print) printf("%s\n", text);
+    free(text);
+    return rc;
+}
+
 static int photo_eval(const char *data, const char *model_path, const char *rule_name, const char *heldout, int limit,
-                      const char *json)
+                      const json_out *json)
 {
     hd_relight_rule rule = strcmp(rule_name, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO;
     hd_model *model = NULL;
@@ -118,13 +136,15 @@ static int photo_eval(const char *data, const char *model_path, const char *rule
     hd_model_free(model);
     hd_aligner_free(aligner);
     if (st != HD_OK) return cli_report("eval");
-    int rc = print_photo_table(&ev, rule_name);
-    if (rc == CLI_EXIT_OK && json && hd_photo_eval_write_json(json, &ev, rule_name) != HD_OK) rc = cli_report("eval");
+    int rc = json->print ? CLI_EXIT_OK : print_photo_table(&ev, rule_name);
+    if (rc == CLI_EXIT_OK && (json->print || json->out))
+        rc = emit_json(json, hd_photo_eval_json(&ev, rule_name),
+                       json->out ? hd_photo_eval_write_json(json->out, &ev, rule_name) : HD_OK);
     hd_photo_eval_free(&ev);
     return rc;
 }
 
-static int pair_eval(const char *data, const char *model_path, const char *json)
+static int pair_eval(const char *data, const char *model_path, const json_out *json)
 {
     hd_model *model = NULL;
     if (hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
@@ -132,25 +152,29 @@ static int pair_eval(const char *data, const char *model_path, const char *json)
     hd_status st = hd_pair_eval_run(data, model, &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
-    printf("%ld pairs (%ld skipped): image i relit under the true light of image j, against image j\n\n", rep.pairs,
-           rep.skipped);
-    printf("%-28s %8s %8s %8s %8s\n", "method", "MAE", "RMSE", "PSNR dB", "SSIM");
-    for (int k = 0; k < HD_PAIR_ROWS; k++)
-        printf("%-28s %8.4f %8.4f %8.2f %8.4f\n", rep.rows[k].name, rep.rows[k].mae, rep.rows[k].rmse, rep.rows[k].psnr,
-               rep.rows[k].ssim);
-    if (json && hd_pair_report_write_json(json, &rep) != HD_OK) return cli_report("eval");
+    if (!json->print) {
+        printf("%ld pairs (%ld skipped): image i relit under the true light of image j, against image j\n\n",
+               rep.pairs, rep.skipped);
+        printf("%-28s %8s %8s %8s %8s\n", "method", "MAE", "RMSE", "PSNR dB", "SSIM");
+        for (int k = 0; k < HD_PAIR_ROWS; k++)
+            printf("%-28s %8.4f %8.4f %8.2f %8.4f\n", rep.rows[k].name, rep.rows[k].mae, rep.rows[k].rmse,
+                   rep.rows[k].psnr, rep.rows[k].ssim);
+    }
+    if (json->print || json->out)
+        return emit_json(json, hd_pair_report_json(&rep), json->out ? hd_pair_report_write_json(json->out, &rep) : HD_OK);
     return CLI_EXIT_OK;
 }
 
 int cmd_eval(int argc, char **argv)
 {
-    const char *model_path = NULL, *pred = NULL, *json = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
-    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0;
+    const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
+    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0;
     const cli_opt opts[] = {
         {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
          "score this model (safetensors) on the set's images (default: the shipped hdnet-synth model)"},
         {"pred", 0, CLI_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
-        {"json", 0, CLI_OPT_STRING, &json, "OUT", "also write the table as JSON to OUT"},
+        {"json", 0, CLI_OPT_FLAG, &json, NULL, "print the report as JSON on stdout instead of the table"},
+        {"output", 'o', CLI_OPT_STRING, &out, "FILE.json", "also write the report as JSON to FILE.json"},
         {"photos", 0, CLI_OPT_FLAG, &photos, NULL,
          "DATA is a folder of people (one folder each) of real photos: measure relighting (docs/usage.md)"},
         {"pairs", 0, CLI_OPT_FLAG, &pairs, NULL,
@@ -166,7 +190,7 @@ int cmd_eval(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "eval",
-        "DATA [-m MODEL | --pred DIR] [--json OUT] | DATA --photos [-m MODEL] [--rule R] [--heldout IDS.txt] "
+        "DATA [-m MODEL | --pred DIR] [--json] [-o FILE.json] | DATA --photos [-m MODEL] [--rule R] [--heldout IDS.txt] "
         "| DATA --pairs [-m MODEL]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
@@ -182,18 +206,22 @@ int cmd_eval(int argc, char **argv)
         "apart, and the worst photo of each. With --pairs, DATA is an `hdnet synth` set: image i of a\n"
         "subject relit under the true light of its next image j, against j (MAE, RMSE, PSNR, SSIM),\n"
         "beside the input unchanged, the exact decomposition and the paper's rule.",
-        opts, 1, 1};
+        opts, 1, 2};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    const char *data = pos[0];
+    const char *data = pos[0], *surplus = npos > 1 ? pos[1] : NULL;
     free(pos);
+    if (surplus && json) /* the old --json OUT */
+        return cli_usage_error(&spec, "--json prints the report on stdout; write it to a file with -o %s", surplus);
+    if (surplus) return cli_usage_error(&spec, "one DATA folder, not also '%s'", surplus);
+    const json_out jo = {json, out, quiet};
     if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
     if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     if (photos && pairs) return cli_usage_error(&spec, "--photos and --pairs exclude each other");
     if (pairs) {
         if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
-        return pair_eval(data, model_path, json);
+        return pair_eval(data, model_path, &jo);
     }
     if (photos) {
         if (pred) return cli_usage_error(&spec, "--photos relights with a model: --pred does not go with it");
@@ -201,7 +229,7 @@ int cmd_eval(int argc, char **argv)
             return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
         if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
         if (sheets) return photo_sheets(data, model_path, sheets);
-        return photo_eval(data, model_path, rule, heldout, limit, json);
+        return photo_eval(data, model_path, rule, heldout, limit, &jo);
     }
     if (heldout || limit || sheets || strcmp(rule, "ratio") != 0)
         return cli_usage_error(&spec, "--rule, --heldout, --limit and --sheets go with --photos");
@@ -212,8 +240,7 @@ int cmd_eval(int argc, char **argv)
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
     snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", pred ? "predictions" : "hdnet model");
-    if (!quiet) print_table(&rep);
-    if (json && hd_eval_report_write_json(json, &rep) != HD_OK) return cli_report("eval");
-    if (json && !quiet) printf("wrote %s\n", json);
+    if (!quiet && !json) print_table(&rep);
+    if (json || out) return emit_json(&jo, hd_eval_report_json(&rep), out ? hd_eval_report_write_json(out, &rep) : HD_OK);
     return CLI_EXIT_OK;
 }

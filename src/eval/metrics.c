@@ -286,12 +286,20 @@ static hd_status fit_decomposition(hd_decomposition *d, int w, int h)
     return st;
 }
 
-/* Reads the prediction for sample s from pred_dir/SUBJECT/NAME.* into d. */
-static hd_status load_pred(const char *pred_dir, const hd_sample *s, hd_decomposition *d)
+/* Reads the prediction for sample s into d: by the batch commands' naming rule (docs/usage.md),
+ * pred_dir/SUBJECT/NAME.* for an image data_dir/SUBJECT/NAME.png, and pred_dir/NAME.* for one
+ * directly in data_dir (a flat set, whose subject is the folder's own name). */
+static hd_status load_pred(const char *data_dir, const char *pred_dir, const hd_sample *s, hd_decomposition *d)
 {
     memset(d, 0, sizeof *d);
+    char *subject_dir = hd_path_join(data_dir, s->subject);
+    if (!subject_dir) return hd_fail(HD_ERR_NOMEM, "out of memory");
+    size_t k = strlen(subject_dir);
+    const int in_subject = strncmp(s->image, subject_dir, k) == 0 && s->image[k] == '/';
+    free(subject_dir);
     char base[4096];
-    if (snprintf(base, sizeof base, "%s/%s/%s", pred_dir, s->subject, s->name) >= (int)sizeof base)
+    if (snprintf(base, sizeof base, "%s/%s%s%s", pred_dir, in_subject ? s->subject : "", in_subject ? "/" : "",
+                 s->name) >= (int)sizeof base)
         return hd_fail(HD_ERR_RANGE, "%s/%s: path too long", pred_dir, s->name);
     char path[4200], pfm[4200];
     hd_status st;
@@ -443,7 +451,7 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
         memset(&d, 0, sizeof d);
         hd_status e = load_gt(s, &g);
         if (e == HD_OK) {
-            e = pred_dir ? load_pred(pred_dir, s, &d) : hd_model_decompose(model, &g.input, 1, &d);
+            e = pred_dir ? load_pred(data_dir, pred_dir, s, &d) : hd_model_decompose(model, &g.input, 1, &d);
             if (e == HD_OK) e = fit_decomposition(&d, g.input.width, g.input.height);
             if (e == HD_OK) e = ensure_recon(&d);
             if (e == HD_OK) e = score(&g, &d, ir->sums, ir->gt_light, ir->pred_light, ir->ls_light, &ir->has_ls);
@@ -506,10 +514,10 @@ static void add_num(cJSON *o, const char *key, int has, double v)
     else cJSON_AddNullToObject(o, key);
 }
 
-hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *r)
+char *hd_eval_report_json(const hd_eval_report *r)
 {
     cJSON *root = cJSON_CreateObject();
-    if (!root) return hd_fail(HD_ERR_NOMEM, "%s: out of memory building JSON", path);
+    if (!root) return hd_fail(HD_ERR_NOMEM, "out of memory building the JSON report"), NULL;
     cJSON_AddNumberToObject(root, "images", (double)r->images);
     cJSON_AddNumberToObject(root, "skipped", (double)r->skipped);
     cJSON_AddNumberToObject(root, "kmeans_k", r->kmeans_k);
@@ -534,7 +542,14 @@ hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *r)
     }
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
-    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: out of memory printing JSON", path);
+    if (!text) hd_fail(HD_ERR_NOMEM, "out of memory printing the JSON report");
+    return text;
+}
+
+hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *r)
+{
+    char *text = hd_eval_report_json(r);
+    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
     hd_atomic_file af;
     hd_status st = hd_atomic_open(&af, path);
     if (st == HD_OK) {

@@ -234,10 +234,10 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *rep
     return st;
 }
 
-hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *rep)
+char *hd_pair_report_json(const hd_pair_report *rep)
 {
     cJSON *root = cJSON_CreateObject();
-    if (!root) return hd_fail(HD_ERR_NOMEM, "%s: out of memory building JSON", path);
+    if (!root) return hd_fail(HD_ERR_NOMEM, "out of memory building the JSON report"), NULL;
     cJSON_AddNumberToObject(root, "pairs", rep->pairs);
     cJSON_AddNumberToObject(root, "skipped", rep->skipped);
     cJSON *rows = cJSON_AddArrayToObject(root, "rows");
@@ -254,7 +254,14 @@ hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *rep)
     }
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
-    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: out of memory printing JSON", path);
+    if (!text) hd_fail(HD_ERR_NOMEM, "out of memory printing the JSON report");
+    return text;
+}
+
+hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *rep)
+{
+    char *text = hd_pair_report_json(rep);
+    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
     hd_atomic_file af;
     hd_status st = hd_atomic_open(&af, path);
     if (st == HD_OK) {

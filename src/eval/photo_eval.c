@@ -223,10 +223,10 @@ hd_status hd_photo_eval_summary(const hd_photo_eval *ev, int group, int metric, 
 
 static const char *const GROUP_NAMES[3] = {"all", "tuning", "heldout"};
 
-hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, const char *rule)
+char *hd_photo_eval_json(const hd_photo_eval *ev, const char *rule)
 {
     cJSON *root = cJSON_CreateObject();
-    if (!root) return hd_fail(HD_ERR_NOMEM, "%s: out of memory building JSON", path);
+    if (!root) return hd_fail(HD_ERR_NOMEM, "out of memory building the JSON report"), NULL;
     cJSON_AddStringToObject(root, "rule", rule);
     cJSON_AddNumberToObject(root, "photos", ev->count);
     cJSON_AddNumberToObject(root, "skipped", ev->skipped);
@@ -260,10 +260,16 @@ hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, co
     }
     char *text = st == HD_OK ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
-    if (st != HD_OK) return st;
-    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: out of memory printing JSON", path);
+    if (st == HD_OK && !text) hd_fail(HD_ERR_NOMEM, "out of memory printing the JSON report");
+    return text;
+}
+
+hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, const char *rule)
+{
+    char *text = hd_photo_eval_json(ev, rule);
+    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
     hd_atomic_file af;
-    st = hd_atomic_open(&af, path);
+    hd_status st = hd_atomic_open(&af, path);
     if (st == HD_OK) {
         fputs(text, af.f);
         fputc('\n', af.f);
