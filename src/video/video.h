@@ -53,8 +53,8 @@ hd_status hd_clip_finish(hd_clip_writer *writer, int ok);
 
 typedef struct hd_video_options {
     int smooth;                /* 1 (default): smooth the decomposition (light, shading, normals) */
-    int smooth_landmarks;      /* 1: also the landmarks (default 0: not yet shown to help,
-                                * docs/video.md) */
+    int smooth_landmarks;      /* 1: also the landmarks (default 0: it lowers the flicker of a still
+                                * camera's clip and raises a shaking one's, docs/video.md) */
     float landmark_min_cutoff; /* one-euro filter of the landmarks: Hz when still (default 3) */
     float landmark_beta;       /* cutoff rise per face width per second of speed (default 60) */
     float light_cutoff;        /* Hz: low-pass of the light, shading and normals (default 1.5) */
