@@ -152,10 +152,32 @@ try {
   await page.click('#before');
   check((await changes(page, mesh)).inside > 500, '"after" shows the relit face again');
 
+  const previews = await page.evaluate(() => window.hdnet.state.previews);
   await page.click('#presets button[data-preset="1"]');
   check(await page.getAttribute('#presets button[data-preset="1"]', 'aria-pressed') === 'true', 'preset 1 is selected');
+  await page.waitForFunction((n) => window.hdnet.state.previews > n, previews);
+  await page.evaluate(() => {
+    const c = document.getElementById('photo');
+    window.previewPixels = c.getContext('2d').getImageData(0, 0, c.width, c.height).data.slice();
+  });
   await page.click('#render');
   await page.waitForFunction(() => window.hdnet.state.view === 'server' && !window.hdnet.state.busy);
+  // the preview follows the server's rule: over the pixels either changed, the mean difference in 8-bit levels
+  const near = await page.evaluate(() => {
+    const c = document.getElementById('photo'), got = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    const pre = window.previewPixels, b = window.hdnet.state.maps.base.data;
+    let sum = 0, n = 0, moved = 0;
+    for (let i = 0; i < got.length; i += 4) {
+      let changed = false;
+      for (let k = 0; k < 3; k++) changed = changed || got[i + k] !== b[i + k] || pre[i + k] !== b[i + k];
+      if (!changed) continue;
+      for (let k = 0; k < 3; k++) sum += Math.abs(got[i + k] - pre[i + k]), moved += Math.abs(got[i + k] - b[i + k]);
+      n += 3;
+    }
+    return { diff: sum / n, change: moved / n, n: n / 3 };
+  });
+  check(near.n > 500 && near.diff < 0.25 * near.change, 'the preview is close to the server\'s render',
+    `mean difference ${near.diff.toFixed(2)} levels over ${near.n} pixels, where the render changes them by ${near.change.toFixed(2)}`);
   // the canvas now holds the server's relight under preset 1, pixel for pixel
   const diff = await page.evaluate(async (id) => {
     const r = await fetch('/api/photos/' + id + '/relight', { method: 'POST', headers: { 'Content-Type': 'application/json' },

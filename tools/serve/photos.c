@@ -3,8 +3,8 @@
  * relights with are built at the photo's size: each face's predicted normals and shading, brought
  * from the model's size to the face texture's (normals renormalised, as hd_relight does) and
  * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
- * faces and falls to 0 over a few pixels at their edge (the server's render Poisson-blends there;
- * the page's preview feathers instead). The store keeps at most N photos and evicts the least
+ * faces and falls to 0 over a few pixels at their edge (the page feathers the change from it, as
+ * the server's render does). The store keeps at most N photos and evicts the least
  * recently used; a photo in use by a request is freed only when that request lets it go. */
 #include <math.h>
 #include <stdlib.h>

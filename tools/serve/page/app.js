@@ -1,11 +1,12 @@
 /* app.js: the `hdnet serve` page (docs/serve.md). A photo is uploaded once; the server finds and
- * decomposes its faces and sends four maps at the photo's size (the photo, the predicted normals,
- * the predicted shading S and a feathered face mask). While the light is dragged the page relights
- * on its own, per pixel, by the rule of docs/usage.md:
- *     out = m * min(k * min(I / max(S, 0.001), 1) * max(s(N, l), 0), 1) + (1 - m) * I
- * with s the SH shading of docs/conventions.md and k the factor that keeps the face's mean
- * brightness. "Render" asks the server for its exact result (the Poisson-blended photo of
- * `hdnet relight`). Nothing is loaded from anywhere but the server. */
+ * decomposes its faces and sends maps at the photo's size (the photo, the predicted normals, the
+ * face mask) and each face's estimated light and landmarks. While the light is dragged the page
+ * relights on its own, per pixel, by the rule of docs/usage.md (relightInPage):
+ *     out = I * exp(w * (log r + t)),   r = (max(s(N, l), 0) + g) / (max(s(N, l_face), 0) + g)
+ * with s the SH shading of docs/conventions.md, g the guard, w the feather from the face's edge,
+ * the eyes, mouth and brows taking the change of the skin around them, and t the offset that keeps
+ * the face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
+ * Nothing is loaded from anywhere but the server. */
 'use strict';
 (() => {
   // ---------------------------------------------------------------- SH lighting (docs/conventions.md)
@@ -13,7 +14,6 @@
   const C3 = 0.2477079561003757, C4 = 0.4290427654048917;
   const BAND_FACTOR = [Math.PI, 2 * Math.PI / 3, 2 * Math.PI / 3, 2 * Math.PI / 3,
     Math.PI / 4, Math.PI / 4, Math.PI / 4, Math.PI / 4, Math.PI / 4];
-  const SHADING_FLOOR = 1e-3;
 
   // The basis b_k(n) of a camera-frame normal: DPR's frame X = x, Y = -z, Z = y.
   function basis(x, y, z) {
@@ -243,51 +243,182 @@
     return ctx.getImageData(0, 0, c.width, c.height);
   }
 
-  // Keeps, for each pixel where the mask is set, what the rule needs: I, 1 / max(S, floor), m, N.
-  function prepareMaps(photo, normal, shading, mask) {
+  // The rule's constants (src/apply/rule.c, apply.c, regions.c): the guard, the feather band (a share
+  // of the eye distance), the growth of the regions (a share of the face's side).
+  const RATIO_GUARD = 0.1, FEATHER_PHOTO = 0.30, REGION_GROW = 0.012;
+  // FaceMesh contours of the regions a face model does not explain (regions.c): eyes, inner lips, brows.
+  const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
+  const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
+  const REGIONS = [RIGHT_EYE, LEFT_EYE,
+    [78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191],
+    [46, 53, 52, 65, 55, 107, 66, 105, 63, 70], [276, 283, 282, 295, 285, 336, 296, 334, 293, 300]];
+
+  function eyeDistance(f) {
+    const c = [RIGHT_EYE, LEFT_EYE].map((e) => e.reduce((a, i) => [a[0] + f.landmarks[i][0] / e.length,
+      a[1] + f.landmarks[i][1] / e.length], [0, 0]));
+    return Math.hypot(c[1][0] - c[0][0], c[1][1] - c[0][1]);
+  }
+
+  // Region r of face f drawn into a W x H byte map as `code` (the polygon grown by `grow` pixels).
+  function drawRegion(map, W, H, f, r, grow, code) {
+    const pts = REGIONS[r].map((i) => f.landmarks[i]);
+    const x0 = Math.max(0, Math.floor(Math.min(...pts.map((p) => p[0])) - grow - 1));
+    const y0 = Math.max(0, Math.floor(Math.min(...pts.map((p) => p[1])) - grow - 1));
+    const x1 = Math.min(W, Math.ceil(Math.max(...pts.map((p) => p[0])) + grow + 1));
+    const y1 = Math.min(H, Math.ceil(Math.max(...pts.map((p) => p[1])) + grow + 1));
+    if (x1 <= x0 || y1 <= y0) return;
+    const c = document.createElement('canvas');
+    c.width = x1 - x0;
+    c.height = y1 - y0;
+    const ctx = c.getContext('2d', { willReadFrequently: true });
+    ctx.beginPath();
+    pts.forEach((p, k) => (k ? ctx.lineTo : ctx.moveTo).call(ctx, p[0] - x0, p[1] - y0));
+    ctx.closePath();
+    ctx.fill();
+    ctx.lineWidth = 2 * grow;
+    ctx.lineJoin = 'round';
+    ctx.stroke();
+    const a = ctx.getImageData(0, 0, c.width, c.height).data;
+    for (let y = y0; y < y1; y++)
+      for (let x = x0; x < x1; x++)
+        if (a[4 * ((y - y0) * c.width + (x - x0)) + 3] >= 128) map[y * W + x] = code;
+  }
+
+  // Feather weights: smoothstep of the chamfer distance (in pixels) to the nearest pixel outside the
+  // faces (or the picture's edge) over `band` (hd_field_feather).
+  function feather(inside, W, H, band) {
+    const d = new Float32Array(W * H), a = 1, b = Math.SQRT2;
+    for (let y = 0; y < H; y++)
+      for (let x = 0; x < W; x++) {
+        const p = y * W + x;
+        d[p] = !inside[p] ? 0 : (x === 0 || y === 0 || x === W - 1 || y === H - 1) ? a : 1e30;
+      }
+    for (let y = 0; y < H; y++)
+      for (let x = 0; x < W; x++) {
+        const p = y * W + x;
+        let v = d[p];
+        if (x > 0) v = Math.min(v, d[p - 1] + a);
+        if (y > 0) v = Math.min(v, d[p - W] + a);
+        if (x > 0 && y > 0) v = Math.min(v, d[p - W - 1] + b);
+        if (x + 1 < W && y > 0) v = Math.min(v, d[p - W + 1] + b);
+        d[p] = v;
+      }
+    for (let y = H - 1; y >= 0; y--)
+      for (let x = W - 1; x >= 0; x--) {
+        const p = y * W + x;
+        let v = d[p];
+        if (x + 1 < W) v = Math.min(v, d[p + 1] + a);
+        if (y + 1 < H) v = Math.min(v, d[p + W] + a);
+        if (x + 1 < W && y + 1 < H) v = Math.min(v, d[p + W + 1] + b);
+        if (x > 0 && y + 1 < H) v = Math.min(v, d[p + W - 1] + b);
+        d[p] = v;
+      }
+    for (let p = 0; p < W * H; p++) {
+      const t = Math.min(d[p] / band, 1);
+      d[p] = t * t * (3 - 2 * t);
+    }
+    return d;
+  }
+
+  // Keeps, for each pixel of a face, what the rule needs: I, N, its face's source shading
+  // s(N, l_face), the face's guard, the feather weight, and which region (or the ring around one)
+  // it is in. Each pixel belongs to the last face whose landmarks' extent holds it, as the maps do.
+  function prepareMaps(photo, normal, mask, faces) {
     const W = photo.width, H = photo.height, n = W * H;
+    const inside = new Uint8Array(n), owner = new Int16Array(n).fill(-1);
+    for (let p = 0; p < n; p++) inside[p] = mask.data[4 * p] > 0 ? 1 : 0;
+    faces.forEach((f, k) => {
+      const xs = f.landmarks.map((q) => q[0]), ys = f.landmarks.map((q) => q[1]);
+      const x0 = Math.max(0, Math.floor(Math.min(...xs)) - 2), x1 = Math.min(W, Math.ceil(Math.max(...xs)) + 2);
+      const y0 = Math.max(0, Math.floor(Math.min(...ys)) - 2), y1 = Math.min(H, Math.ceil(Math.max(...ys)) + 2);
+      for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) if (inside[y * W + x]) owner[y * W + x] = k;
+    });
+    // regions: code 1 + 2 (5 k + r) inside region r of face k, that + 1 on the ring around it
+    const regions = new Int32Array(n);
+    faces.forEach((f, k) => {
+      const side = Math.max(f.box[2] - f.box[0], f.box[3] - f.box[1]), grow = Math.max(1, REGION_GROW * side);
+      const ring = new Int32Array(n);
+      for (let r = 0; r < REGIONS.length; r++) {
+        const code = 1 + 2 * (REGIONS.length * k + r);
+        drawRegion(ring, W, H, f, r, 3 * grow, code + 1);
+        drawRegion(regions, W, H, f, r, grow, code);
+      }
+      for (let p = 0; p < n; p++) if (ring[p] && !regions[p]) regions[p] = ring[p];
+    });
+    // one band for the photo: the smallest face's (apply.c feathers each face by its own)
+    const weight = feather(inside, W, H, Math.min(...faces.map((f) => Math.max(2, FEATHER_PHOTO * eyeDistance(f)))));
     let count = 0;
-    for (let p = 0; p < n; p++) if (mask.data[4 * p] > 0) count++;
+    for (let p = 0; p < n; p++) if (owner[p] >= 0 && weight[p] > 0) count++;
     const m = { W, H, n: count, base: photo, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
-      px: new Int32Array(count), rgb: new Float32Array(3 * count), inv: new Float32Array(count), w: new Float32Array(count),
-      nrm: new Float32Array(3 * count) };
+      px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
+      nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
+      region: new Int32Array(count), codes: 2 * REGIONS.length * faces.length + 2 };
+    const sum = new Float64Array(faces.length), num = new Float64Array(faces.length);
     let j = 0;
     for (let p = 0; p < n; p++) {
-      if (mask.data[4 * p] === 0) continue;
+      const k = owner[p];
+      if (k < 0 || !(weight[p] > 0)) continue;
       let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
       const len = Math.hypot(x, y, z) || 1;
+      x /= len, y /= len, z /= len;
       m.px[j] = p;
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
-      m.inv[j] = 1 / Math.max(2 * shading.data[4 * p] / 255, SHADING_FLOOR); // the map holds S / 2
-      m.w[j] = mask.data[4 * p] / 255;
-      m.nrm[3 * j] = x / len;
-      m.nrm[3 * j + 1] = y / len;
-      m.nrm[3 * j + 2] = z / len;
+      m.w[j] = weight[p];
+      m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
+      m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
+      m.region[j] = regions[p];
+      if (regions[p] % 2 === 0) sum[k] += m.src[j], num[k]++; // the skin: outside the regions
+      m.guard[j] = k;
       j++;
+    }
+    for (let i = 0; i < count; i++) {
+      const k = m.guard[i];
+      m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
     }
     return m;
   }
 
+  // The rule of docs/usage.md per pixel: out = I * exp(w * (log r + t)),
+  // r = (max(s(N, l), 0) + g) / (s(N, l_face) + g), the regions taking the mean log r of the ring
+  // around them, t the one offset that keeps the w-weighted mean luminance (--keep-brightness), the
+  // factor lowered for a pixel where a channel would pass 1.
   function relightInPage() {
     const m = state.maps, l = currentLight(), d = m.out.data;
-    const s = new Float32Array(m.n);
-    let target = 0, lit = 0;
+    const L = new Float32Array(m.n), ringSum = new Float64Array(m.codes), ringNum = new Float64Array(m.codes);
     for (let j = 0; j < m.n; j++) {
-      const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), w = m.w[j], inv = m.inv[j];
-      s[j] = t;
-      for (let c = 0; c < 3; c++) {
-        const I = m.rgb[3 * j + c];
-        target += w * I;
-        lit += w * Math.min(I * inv, 1) * t;
-      }
+      const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), g = m.guard[j];
+      L[j] = t === m.src[j] ? 0 : Math.log((t + g) / (m.src[j] + g));
+      const r = m.region[j];
+      if (r && r % 2 === 0) ringSum[r - 1] += L[j], ringNum[r - 1]++;
     }
-    const k = ui.keep.checked && lit > 0 && target > 0 ? target / lit : 1;
     for (let j = 0; j < m.n; j++) {
-      const p = 4 * m.px[j], w = m.w[j], inv = m.inv[j];
-      for (let c = 0; c < 3; c++) {
-        const I = m.rgb[3 * j + c];
-        d[p + c] = 255 * (w * Math.min(k * Math.min(I * inv, 1) * s[j], 1) + (1 - w) * I) + 0.5;
+      const r = m.region[j];
+      if (r % 2 === 1) L[j] = ringNum[r] > 0 ? ringSum[r] / ringNum[r] : 0;
+    }
+    const lum = new Float32Array(m.n);
+    let goal = 0;
+    for (let j = 0; j < m.n; j++) {
+      lum[j] = 0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2];
+      goal += m.w[j] * lum[j];
+    }
+    let t = 0;
+    if (ui.keep.checked && goal > 0)
+      for (let it = 0; it < 6; it++) { // Newton on sum w lum exp(w (L + t)) = goal
+        let f = 0, df = 0;
+        for (let j = 0; j < m.n; j++) {
+          const v = m.w[j] * lum[j] * Math.exp(m.w[j] * (L[j] + t));
+          f += v;
+          df += m.w[j] * v;
+        }
+        if (!(df > 0)) break;
+        t -= (f - goal) / df;
       }
+    for (let j = 0; j < m.n; j++) {
+      const p = 4 * m.px[j], I = m.rgb.subarray(3 * j, 3 * j + 3);
+      let k = Math.exp(m.w[j] * (L[j] + t));
+      const top = Math.max(I[0], I[1], I[2]);
+      if (top > 0 && k * top > 1) k = 1 / top;
+      for (let c = 0; c < 3; c++) d[p + c] = 255 * k * I[c] + 0.5;
     }
     photoCtx.putImageData(m.out, 0, 0);
     state.previews++;
@@ -353,10 +484,9 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, shading, mask] = await Promise.all(
-        ['photo', 'normal', 'shading', 'mask'].map((k) => mapPixels(j.maps[k])));
+      const [photo, normal, mask] = await Promise.all(['photo', 'normal', 'mask'].map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, shading, mask);
+      state.maps = prepareMaps(photo, normal, mask, j.faces);
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
