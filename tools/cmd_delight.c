@@ -1,52 +1,24 @@
-/* cmd_delight.c: `hdnet delight`: the faces of photos, or aligned face textures, under flat light,
- * i.e. the paper's final albedo I / S (clamped) where the face's mask is set, the input elsewhere
- * (docs/usage.md). hd_delight_face is the texture-in, texture-out core and hd_relight_photo its
- * photo wrapper (align, delight each face, warp back, Poisson blend); delight_one is the per-photo
- * step the batch loop (batch.c) runs over every input; the rest is file handling. */
+/* cmd_delight.c: `hdnet delight`: the faces of photos, or aligned face textures, under flat light by
+ * the relighting rule (docs/usage.md: I * (1 + g) / (s(N, l_face) + g), feathered, brightness kept),
+ * the input outside the faces. The work is hd_apply_photo / hd_apply_texture through the per-photo
+ * step relight, delight and transfer share (apply_cli.c), run by the batch loop (batch.c) over
+ * every input; the rest is options. */
 #include <stdlib.h>
 #include <string.h>
-#include "batch.h"
+#include "apply_cli.h"
 #include "cli.h"
 #include "video_cli.h"
 
 CLI_COMMAND("delight", cmd_delight, "remove the lighting of the faces of photos or of aligned faces (albedo under flat light)")
 
-typedef struct delight_run {
-    const char *mask_path;
-    int aligned, noted;
-    float min_score;
-    hd_model *model;
-    hd_aligner *aligner;
-} delight_run;
-
 static hd_status delight_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
 {
-    delight_run *run = ctx;
-    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
-    hd_image tex = {0}, mask = {0}, delit = {0};
-    char *mask_source = NULL, *path = NULL;
-    hd_status st = hd_image_read_as(in->path, 3, &tex);
-    if (st == HD_OK && photo && !run->aligner) {
-        st = hd_aligner_load(&run->aligner);
-        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
-    }
-    if (st == HD_OK && photo) {
-        if (run->mask_path && !run->noted++) cli_note_mask("delight", 1, run->mask_path, NULL);
-        st = hd_relight_photo(run->model, run->aligner, &tex, NULL, 0, HD_BRIGHTNESS_KEEP, NULL, &delit, &r->faces);
-    } else if (st == HD_OK) {
-        st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
-        if (st == HD_OK) cli_note_mask("delight", 0, run->mask_path, mask_source);
-        if (st == HD_OK) st = hd_delight_face(run->model, &tex, &mask, &delit);
-        r->faces = 1;
-    }
-    if (st == HD_OK && !(path = single ? strdup(out) : cli_output_path(out, in, ".delit.png"))) st = HD_ERR_NOMEM;
-    if (st == HD_OK) st = hd_image_write_picture(path, &delit);
-    if (st == HD_OK) snprintf(r->wrote, sizeof r->wrote, "%s", path);
-    free(path);
-    hd_image_free(&delit);
+    hd_image tex = {0};
+    hd_apply_result res;
+    hd_status st = cli_apply_input(ctx, in, &tex, &res, r);
+    if (st == HD_OK) st = cli_apply_write(in, out, single, ".delit.png", 0, &res.delit, r);
+    hd_apply_result_free(&res);
     hd_image_free(&tex);
-    hd_image_free(&mask);
-    free(mask_source);
     return st;
 }
 
@@ -71,19 +43,21 @@ int cmd_delight(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "delight", "IMG|DIR|@LIST ... [-m MODEL] -o OUT [--aligned [--mask M.png]]",
-        "Removes the lighting of every face of a photo: each face is aligned, replaced by its final albedo\n"
-        "I / S (S the predicted shading, floored at 1e-3, the ratio clamped to [0, 1]) in the aligned\n"
-        "texture space, warped back and Poisson-blended into the photo. With --aligned (or a companion\n"
-        "NAME.mask.png / NAME.normal.png) IMG is an aligned face texture: the final albedo where the mask\n"
-        "is set, the input where it is not. Many inputs (files, folders walked recursively, @LIST files of\n"
-        "paths) share one model load and write OUT/REL/NAME.delit.png; a photo that cannot be read or has\n"
-        "no face is reported and skipped, and the exit status is then 1.",
+        "Removes the lighting of every face of a photo: each face is aligned and decomposed, and the photo\n"
+        "is multiplied by (1 + g) / (s(N, l_face) + g), the change from the face's estimated light to a\n"
+        "flat one on the predicted normals (docs/usage.md), faded to nothing at the face's edge, with the\n"
+        "face's mean brightness kept. With --aligned (or a companion NAME.mask.png / NAME.normal.png) IMG\n"
+        "is an aligned face texture: changed inside the mask, the input where it is not. Many inputs\n"
+        "(files, folders walked recursively, @LIST files of paths) share one model load and write\n"
+        "OUT/REL/NAME.delit.png; a photo that cannot be read or has no face is reported and skipped, and\n"
+        "the exit status is then 1.",
         opts, 1, -1};
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     cli_inputs in = {0};
-    delight_run run = {mask_path, aligned, 0, min_score, NULL, NULL};
+    cli_apply_run run = {"delight", {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP}, mask_path, aligned, 0,
+                         min_score, NULL, NULL};
     int rc = CLI_EXIT_FAIL;
     if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required")))) {
         free(pos);

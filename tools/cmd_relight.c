@@ -1,13 +1,14 @@
 /* cmd_relight.c: `hdnet relight`: a photo (every face in it) or an aligned face texture under a new
  * light (a light file of 9 or 27 numbers, a built-in preset, all seven presets, a direction with
  * an optional colour, or an environment map), by the rule of docs/usage.md. hd_apply_photo and
- * hd_apply_texture (src/apply/apply.c) do the work; relight_one is the per-photo step the batch
- * loop (batch.c) runs over every input; everything else here is options and files. */
+ * hd_apply_texture (src/apply/apply.c) do the work, through the per-photo step relight, delight and
+ * transfer share (apply_cli.c) that the batch loop (batch.c) runs over every input; everything else
+ * here is options and files. */
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include "batch.h"
+#include "apply_cli.h"
 #include "cli.h"
 #include "hdnet_tool.h"
 #include "video_cli.h"
@@ -30,60 +31,19 @@ static hd_status write_sheet(const char *path, const hd_image *input, const hd_i
     return st;
 }
 
-/* What every photo of one run shares: the lights, the model and aligner (loaded once). */
+/* What every photo of one run shares: the request, the model and aligner (loaded once). */
 typedef struct relight_run {
-    hd_apply_request request;
-    int all, aligned, noted;
-    const char *mask_path, *sheet_path;
-    float min_score;
-    hd_model *model;
-    hd_aligner *aligner;
+    cli_apply_run apply;
+    int all; /* --preset all: OUT/REL.preset<i>.png */
+    const char *sheet_path;
 } relight_run;
-
-/* Writes relit image i of input `in`: the file -o names (one input), OUT/REL.relit.png, or with
- * --preset all OUT/REL.preset<i>.png. */
-static hd_status write_relit(const relight_run *run, const cli_input *in, const char *out, int single, int i,
-                             const hd_image *relit, cli_result *r)
-{
-    char suffix[32];
-    if (run->all) snprintf(suffix, sizeof suffix, ".preset%d.png", i);
-    else snprintf(suffix, sizeof suffix, ".relit.png");
-    char *path = single ? strdup(out) : cli_output_path(out, in, suffix);
-    if (!path) return HD_ERR_NOMEM;
-    hd_status st = hd_image_write_picture(path, relit);
-    if (st == HD_OK) {
-        if (run->all && run->request.count > 1)
-            snprintf(r->wrote, sizeof r->wrote, "%s .. preset%d.png", path, run->request.count - 1);
-        else if (i == 0)
-            snprintf(r->wrote, sizeof r->wrote, "%s", path);
-    }
-    free(path);
-    return st;
-}
 
 static hd_status relight_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
 {
     relight_run *run = ctx;
-    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
-    hd_image tex = {0}, mask = {0};
+    hd_image tex = {0};
     hd_apply_result res;
-    memset(&res, 0, sizeof res);
-    char *mask_source = NULL;
-    hd_status st = hd_image_read_as(in->path, 3, &tex);
-    if (st == HD_OK && photo && !run->aligner) {
-        st = hd_aligner_load(&run->aligner);
-        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
-    }
-    if (st == HD_OK && photo && run->mask_path && !run->noted++) cli_note_mask("relight", 1, run->mask_path, NULL);
-    if (st == HD_OK && photo) {
-        st = hd_apply_photo(run->model, run->aligner, &tex, &run->request, &res);
-        r->faces = res.nfaces;
-    } else if (st == HD_OK) {
-        st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
-        if (st == HD_OK) cli_note_mask("relight", 0, run->mask_path, mask_source);
-        if (st == HD_OK) st = hd_apply_texture(run->model, &tex, &mask, &run->request, &res);
-        r->faces = 1;
-    }
+    hd_status st = cli_apply_input(&run->apply, in, &tex, &res, r);
     for (int i = 0; i < res.count && st == HD_OK; i++) {
         char what[1200];
         snprintf(what, sizeof what, "%s: the relit result%s (nothing written)", in->path, run->all ? " of a preset" : "");
@@ -91,15 +51,21 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
     }
     if (st == HD_OK) {
         hd_atomic_set_begin(); /* the relit pictures and the sheet appear together or not at all */
-        for (int i = 0; i < res.count && st == HD_OK; i++) st = write_relit(run, in, out, single, i, &res.relit[i], r);
+        for (int i = 0; i < res.count && st == HD_OK; i++) {
+            char suffix[32] = ".relit.png";
+            if (run->all) snprintf(suffix, sizeof suffix, ".preset%d.png", i);
+            st = cli_apply_write(in, out, single, suffix, i, &res.relit[i], r);
+        }
         if (st == HD_OK && run->sheet_path) st = write_sheet(run->sheet_path, &tex, &res.delit, res.relit, res.count);
         hd_status set_end = hd_atomic_set_end(st == HD_OK);
         if (st == HD_OK) st = set_end;
     }
+    if (st == HD_OK && run->all && res.count > 1) {
+        size_t n = strlen(r->wrote);
+        snprintf(r->wrote + n, sizeof r->wrote - n, " .. preset%d.png", res.count - 1);
+    }
     hd_apply_result_free(&res);
     hd_image_free(&tex);
-    hd_image_free(&mask);
-    free(mask_source);
     return st;
 }
 
@@ -203,13 +169,13 @@ int cmd_relight(int argc, char **argv)
         cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
         goto done;
     }
-    run.request.count = 1;
+    run.apply.request.count = 1;
     if (preset) {
         char *end = NULL;
         long k = strtol(preset, &end, 10);
         if (strcmp(preset, "all") == 0) {
             run.all = 1;
-            run.request.count = HD_LIGHT_PRESETS;
+            run.apply.request.count = HD_LIGHT_PRESETS;
             for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
         } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
             cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
@@ -261,23 +227,24 @@ int cmd_relight(int argc, char **argv)
         goto done;
     }
     rc = CLI_EXIT_FAIL;
-    run.request.lights = lights;
-    run.request.delight = sheet_path != NULL;
-    run.request.rule = HD_RULE_RATIO;
-    run.request.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
-    run.aligned = aligned;
-    run.mask_path = mask_path;
+    run.apply.request.lights = lights;
+    run.apply.request.delight = sheet_path != NULL;
+    run.apply.request.rule = HD_RULE_RATIO;
+    run.apply.cmd = "relight";
+    run.apply.request.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    run.apply.aligned = aligned;
+    run.apply.mask_path = mask_path;
     run.sheet_path = sheet_path;
-    run.min_score = min_score;
-    if (hd_model_load(model_path, &run.model) != HD_OK) {
+    run.apply.min_score = min_score;
+    if (hd_model_load(model_path, &run.apply.model) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
     rc = cli_batch_run("relight", "relit", &in, out, single, quiet, relight_one, &run, NULL);
 done:
     if (code) rc = code;
-    if (run.model) hd_model_free(run.model);
-    hd_aligner_free(run.aligner);
+    if (run.apply.model) hd_model_free(run.apply.model);
+    hd_aligner_free(run.apply.aligner);
     cli_inputs_free(&in);
     free(pos);
     return rc;

@@ -1,50 +1,25 @@
 /* cmd_transfer.c: `hdnet transfer`: relights the faces of photos, or aligned face textures, under
  * the light the model estimates for a reference face (a photo's best face, or an aligned texture;
  * docs/usage.md). Exactly `hdnet estimate-light REF` followed by `hdnet relight IMG --light`
- * (bit-identical); hd_estimate_light(_photo), hd_relight_face and hd_relight_photo are the cores,
- * transfer_one the per-photo step the batch loop (batch.c) runs over every input, the rest is file
- * handling. */
+ * (bit-identical): hd_estimate_light(_photo) for the reference, then hd_apply_photo /
+ * hd_apply_texture through the per-photo step relight, delight and transfer share (apply_cli.c),
+ * run by the batch loop (batch.c) over every input; the rest is options. */
 #include <stdlib.h>
 #include <string.h>
-#include "batch.h"
+#include "apply_cli.h"
 #include "cli.h"
 #include "video_cli.h"
 
 CLI_COMMAND("transfer", cmd_transfer, "relight the faces of photos (or aligned faces) with the light of a reference face")
 
-typedef struct transfer_run {
-    float light[HD_SH_COEFFS];
-    hd_brightness brightness;
-    const char *mask_path;
-    int aligned;
-    hd_model *model;
-    hd_aligner *aligner;
-} transfer_run;
-
 static hd_status transfer_one(void *ctx, const cli_input *in, const char *out, int single, cli_result *r)
 {
-    transfer_run *run = ctx;
-    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
-    hd_image tex = {0}, mask = {0}, relit = {0};
-    char *mask_source = NULL, *path = NULL;
-    hd_status st = hd_image_read_as(in->path, 3, &tex);
-    if (st == HD_OK && photo) {
-        st = hd_relight_photo(run->model, run->aligner, &tex, (const float (*)[HD_SH_COEFFS])run->light, 1,
-                              run->brightness, &relit, NULL, &r->faces);
-    } else if (st == HD_OK) {
-        st = hd_face_mask_read(in->path, run->mask_path, tex.width, tex.height, &mask, &mask_source);
-        if (st == HD_OK) cli_note_mask("transfer", 0, run->mask_path, mask_source);
-        if (st == HD_OK) st = hd_relight_face(run->model, &tex, &mask, run->light, run->brightness, &relit);
-        r->faces = 1;
-    }
-    if (st == HD_OK && !(path = single ? strdup(out) : cli_output_path(out, in, ".transfer.png"))) st = HD_ERR_NOMEM;
-    if (st == HD_OK) st = hd_image_write_picture(path, &relit);
-    if (st == HD_OK) snprintf(r->wrote, sizeof r->wrote, "%s", path);
-    free(path);
-    hd_image_free(&relit);
+    hd_image tex = {0};
+    hd_apply_result res;
+    hd_status st = cli_apply_input(ctx, in, &tex, &res, r);
+    if (st == HD_OK) st = cli_apply_write(in, out, single, ".transfer.png", 0, &res.relit[0], r);
+    hd_apply_result_free(&res);
     hd_image_free(&tex);
-    hd_image_free(&mask);
-    free(mask_source);
     return st;
 }
 
@@ -75,7 +50,7 @@ int cmd_transfer(int argc, char **argv)
     const cli_cmd_spec spec = {
         "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",
         "Estimates the light of the reference REF with the model (a photo: its best-scoring face) and\n"
-        "relights IMG under it: every face of a photo (aligned, relit, warped back, Poisson-blended), or\n"
+        "relights IMG under it by the rule of `hdnet relight`: every face of a photo, or\n"
         "an aligned face texture with --aligned (masked-out pixels keep the input). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and the reference's\n"
         "light, and write OUT/REL/NAME.transfer.png; a photo that cannot be read or has no face is\n"
@@ -97,7 +72,11 @@ int cmd_transfer(int argc, char **argv)
         free(pos);
         return code;
     }
-    transfer_run run = {{0}, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, mask_path, aligned, NULL, NULL};
+    float light[HD_SH_COEFFS];
+    hd_light_rgb rgb;
+    /* the mask note of photos is printed once below, before the run */
+    cli_apply_run run = {"transfer", {&rgb, 1, 0, 0, HD_RULE_RATIO, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP},
+                         mask_path, aligned, 1, min_score, NULL, NULL};
     int single = 0;
     if ((code = cli_output_mode(&spec, pos, npos, out, NULL, &single))) {
         free(pos);
@@ -117,12 +96,13 @@ int cmd_transfer(int argc, char **argv)
         goto done;
     }
     hd_aligner_set_min_score(run.aligner, min_score);
-    st = ref_photo ? hd_estimate_light_photo(run.model, run.aligner, &ref, run.light, &nfaces)
-                             : hd_estimate_light(run.model, &ref, run.light);
+    st = ref_photo ? hd_estimate_light_photo(run.model, run.aligner, &ref, light, &nfaces)
+                   : hd_estimate_light(run.model, &ref, light);
     if (st != HD_OK) {
         rc = ref_photo ? cli_report_photo("transfer", st, ref_path) : cli_report("transfer");
         goto done;
     }
+    hd_light_rgb_from_grey(light, &rgb);
     if (ref_photo && nfaces > 1)
         fprintf(stderr, "hdnet transfer: note: %s has %d faces; the light is that of face 0 (best score)\n", ref_path,
                 nfaces);

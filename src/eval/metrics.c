@@ -9,6 +9,7 @@
 #include <cjson/cJSON.h>
 #include "core/core.h"
 #include "io/dataset.h"
+#include "eval/eval_json.h"
 
 static const double THRESHOLDS[HD_EVAL_THRESHOLDS] = {20.0, 25.0, 30.0};
 
@@ -548,7 +549,11 @@ char *hd_eval_report_json(const hd_eval_report *r)
 
 hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *r)
 {
-    char *text = hd_eval_report_json(r);
+    return hd_eval_json_write(path, hd_eval_report_json(r));
+}
+
+hd_status hd_eval_json_write(const char *path, char *text)
+{
     if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
     hd_atomic_file af;
     hd_status st = hd_atomic_open(&af, path);

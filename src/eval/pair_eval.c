@@ -10,6 +10,7 @@
 #include <cjson/cJSON.h>
 #include "core/core.h"
 #include "io/dataset.h"
+#include "eval/eval_json.h"
 #include "apply/apply.h"
 
 static const char *const ROW_NAMES[HD_PAIR_ROWS] = {"input unchanged", "exact decomposition", "exact ratio (true N, l)",
@@ -260,15 +261,5 @@ char *hd_pair_report_json(const hd_pair_report *rep)
 
 hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *rep)
 {
-    char *text = hd_pair_report_json(rep);
-    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
-    hd_atomic_file af;
-    hd_status st = hd_atomic_open(&af, path);
-    if (st == HD_OK) {
-        fputs(text, af.f);
-        fputc('\n', af.f);
-        st = hd_atomic_commit(&af);
-    }
-    free(text);
-    return st;
+    return hd_eval_json_write(path, hd_pair_report_json(rep));
 }

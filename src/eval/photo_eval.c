@@ -10,6 +10,7 @@
 #include <cjson/cJSON.h>
 #include "core/core.h"
 #include "io/dataset.h"
+#include "eval/eval_json.h"
 #include "apply/apply.h"
 
 static const char *const METRIC_NAMES[HD_PHOTO_METRICS] = {"chroma", "detail", "glow", "seam", "self", "light", "lum"};
@@ -266,15 +267,5 @@ char *hd_photo_eval_json(const hd_photo_eval *ev, const char *rule)
 
 hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, const char *rule)
 {
-    char *text = hd_photo_eval_json(ev, rule);
-    if (!text) return hd_fail(HD_ERR_NOMEM, "%s: %s", path, hd_error());
-    hd_atomic_file af;
-    hd_status st = hd_atomic_open(&af, path);
-    if (st == HD_OK) {
-        fputs(text, af.f);
-        fputc('\n', af.f);
-        st = hd_atomic_commit(&af);
-    }
-    free(text);
-    return st;
+    return hd_eval_json_write(path, hd_photo_eval_json(ev, rule));
 }

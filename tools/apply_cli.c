@@ -1,0 +1,45 @@
+/* apply_cli.c: the per-photo step of relight, delight and transfer (apply_cli.h): read, align on
+ * demand, apply the request through src/apply/apply.c, write by the naming rule. */
+#include <stdlib.h>
+#include <string.h>
+#include "apply_cli.h"
+#include "cli.h"
+
+hd_status cli_apply_input(cli_apply_run *run, const cli_input *in, hd_image *picture, hd_apply_result *res,
+                          cli_result *r)
+{
+    memset(res, 0, sizeof *res);
+    const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
+    hd_image mask = {0};
+    char *mask_source = NULL;
+    hd_status st = hd_image_read_as(in->path, 3, picture);
+    if (st == HD_OK && photo && !run->aligner) {
+        st = hd_aligner_load(&run->aligner);
+        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
+    }
+    if (st == HD_OK && photo) {
+        if (run->mask_path && !run->noted++) cli_note_mask(run->cmd, 1, run->mask_path, NULL);
+        st = hd_apply_photo(run->model, run->aligner, picture, &run->request, res);
+        r->faces = res->nfaces;
+    } else if (st == HD_OK) {
+        st = hd_face_mask_read(in->path, run->mask_path, picture->width, picture->height, &mask, &mask_source);
+        if (st == HD_OK) cli_note_mask(run->cmd, 0, run->mask_path, mask_source);
+        if (st == HD_OK) st = hd_apply_texture(run->model, picture, &mask, &run->request, res);
+        r->faces = 1;
+    }
+    hd_image_free(&mask);
+    free(mask_source);
+    if (st != HD_OK) hd_image_free(picture);
+    return st;
+}
+
+hd_status cli_apply_write(const cli_input *in, const char *out, int single, const char *suffix, int index,
+                          const hd_image *pic, cli_result *r)
+{
+    char *path = single ? strdup(out) : cli_output_path(out, in, suffix);
+    if (!path) return HD_ERR_NOMEM;
+    hd_status st = hd_image_write_picture(path, pic);
+    if (st == HD_OK && index == 0) snprintf(r->wrote, sizeof r->wrote, "%s", path);
+    free(path);
+    return st;
+}
