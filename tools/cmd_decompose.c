@@ -386,13 +386,12 @@ int cmd_decompose(int argc, char **argv)
     hd_decomposition *d = calloc((size_t)batch, sizeof *d);
     hd_sheet *sheets = calloc((size_t)batch, sizeof *sheets);
     int *index = calloc((size_t)batch, sizeof *index);
-    if (!tex || !mask || !d || !sheets || !index) {
-        fprintf(stderr, "hdnet decompose: out of memory\n");
-        free(tex), free(mask), free(d), free(sheets), free(index);
-        rc = CLI_EXIT_FAIL;
-        goto done;
+    const int no_memory = !tex || !mask || !d || !sheets || !index;
+    if (no_memory) { /* the textures fail; the counts below still meet those of the other MPI ranks */
+        fprintf(stderr, "hdnet decompose: out of memory for %d aligned texture%s\n", jobs.count, jobs.count == 1 ? "" : "s");
+        failed += jobs.count;
     }
-    for (int start = 0; start < jobs.count && !stop; start += batch) {
+    for (int start = 0; start < jobs.count && !stop && !no_memory; start += batch) {
         int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
         const char *status[256] = {0};
         for (int i = start; i < end; i++) {
