@@ -4,7 +4,7 @@
  * estimated light's change between frames (L2 over the 9 coefficients) and the change of the
  * relighting's gain out / in over the face's box between frames, with the known shift undone (the
  * input's noise divided out). On the shaking clip, smoothing the decomposition must lower both.
- * Then the clip
+ * Without smoothing, a frame is relit (and delit) to the same pixels as hd_relight_photo. Then the clip
  * formats: a folder of frames in and out (every frame written, same size), and, when the build
  * has FFmpeg, a video file written and read back (frame count, frame rate, pixels within coding
  * loss) and relit video to video with its audio stream copied packet for packet. */
@@ -318,6 +318,40 @@ static void test_video_file(hd_model *model, hd_aligner *aligner)
 }
 #endif
 
+/* Without smoothing a frame is relit as a photo is: the same rule, the same pixels as
+ * hd_relight_photo (and delit as hd_relight_photo delights). */
+static void same_as_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo)
+{
+    float light[HD_SH_COEFFS];
+    hd_light_preset(1, light);
+    hd_video_options o;
+    hd_video_options_default(&o);
+    o.smooth = 0;
+    for (int delight = 0; delight < 2; delight++) {
+        hd_video_relighter *v = NULL;
+        CHECK(hd_video_relighter_new(model, aligner, delight ? NULL : light, HD_BRIGHTNESS_KEEP, &o, &v) == HD_OK);
+        if (!v) return;
+        hd_image frame = {0}, want = {0};
+        hd_status st = hd_video_relight_frame(v, photo, &frame, NULL);
+        if (st == HD_OK)
+            st = delight ? hd_relight_photo(model, aligner, photo, NULL, 0, HD_BRIGHTNESS_KEEP, NULL, &want, NULL)
+                         : hd_relight_photo(model, aligner, photo, (const float (*)[HD_SH_COEFFS])light, 1,
+                                            HD_BRIGHTNESS_KEEP, &want, NULL, NULL);
+        CHECK(st == HD_OK);
+        size_t n = (size_t)photo->width * photo->height * 3, differ = 0, changed = 0;
+        for (size_t i = 0; st == HD_OK && i < n; i++) {
+            differ += frame.data[i] != want.data[i];
+            changed += frame.data[i] != photo->data[i];
+        }
+        fprintf(stderr, "%s: a frame against the photo's: %zu of %zu samples differ (%zu changed by it)\n",
+                delight ? "delight" : "relight", differ, n, changed);
+        CHECK(st == HD_OK && differ == 0 && changed > 1000);
+        hd_image_free(&frame);
+        hd_image_free(&want);
+        hd_video_relighter_free(v);
+    }
+}
+
 int main(void)
 {
     find_source_dir();
@@ -334,6 +368,7 @@ int main(void)
     if (st != HD_OK) fprintf(stderr, "%s\n", hd_error());
     CHECK(st == HD_OK);
     if (!photo.data || !model || !aligner) return test_summary("video");
+    same_as_photo(model, aligner, &photo);
     /* A shaking camera: smoothing the decomposition lowers both measures. */
     make_clip(&photo, 1);
     double light_raw, face_raw, light_smooth, face_smooth;

@@ -218,6 +218,32 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     return st;
 }
 
+/* The feather weights of face f in the photo: from the edge of where its mask warps to. */
+static hd_status face_feather(const hd_aligned_face *f, float *feather)
+{
+    hd_image warped = {0}, coverage = {0};
+    hd_status st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
+    if (st == HD_OK) st = photo_feather(f, &coverage, feather);
+    hd_image_free(&warped);
+    hd_image_free(&coverage);
+    return st;
+}
+
+hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
+                        hd_brightness brightness, hd_image *photo)
+{
+    if (!f || !d || !photo || !photo->data || photo->channels != 3)
+        return hd_fail(HD_ERR_ARG, "relight: a face, its decomposition and a 3-channel photo are needed");
+    const size_t P = (size_t)photo->width * (size_t)photo->height;
+    float *feather = hd_malloc((P ? P : 1) * sizeof(float));
+    if (!feather) return HD_ERR_NOMEM;
+    job jb = {target, {{{0}}}, brightness, photo};
+    hd_status st = face_feather(f, feather);
+    if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &jb);
+    free(feather);
+    return st;
+}
+
 hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *q,
                          hd_apply_result *r)
 {
@@ -245,14 +271,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         memset(&d, 0, sizeof d);
         st = hd_model_decompose(model, &f->texture, 1, &d);
         if (st == HD_OK) memcpy(r->face_light[k], d.light, sizeof d.light);
-        if (st == HD_OK && feather) {
-            /* the face's region in the photo: where its mask warps to */
-            hd_image warped = {0}, coverage = {0};
-            st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
-            if (st == HD_OK) st = photo_feather(f, &coverage, feather);
-            hd_image_free(&warped);
-            hd_image_free(&coverage);
-        }
+        if (st == HD_OK && feather) st = face_feather(f, feather);
         int m = st == HD_OK ? jobs_of(q, r, d.light, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &jobs[i]);
         hd_decomposition_free(&d);

@@ -40,6 +40,13 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
  * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place. */
 hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image);
 
+/* The rule on one face of a photo already aligned (f) and decomposed (d, which may be smoothed, as
+ * a video does): photo (3 channels, the frame's size; earlier faces may be changed already) is
+ * changed in place toward target (NULL: flat light, delighting), feathered from the face's edge,
+ * as hd_apply_photo does for each face. */
+hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
+                        hd_brightness brightness, hd_image *photo);
+
 /* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,
                            hd_brightness brightness, hd_image *out);

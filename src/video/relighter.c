@@ -3,12 +3,13 @@
  * 468 landmarks (one-euro, in face widths, so the filter behaves the same at any face size; the
  * face is then unwarped again from them) and, after the face is decomposed, smooths the light and
  * the shading and normal maps (a first-order low-pass: the maps are in the aligned texture space, where every
- * texel stays on the same point of the face). The relit texture is warped back and blended as
- * hd_relight_photo does (HD_WARP_CHANGE). */
+ * texel stays on the same point of the face). The frame is then changed by the photo's relighting
+ * rule on that decomposition (hd_apply_face, src/apply/apply.c), as hdnet relight changes a photo. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+#include "apply/apply.h"
 #include "video/smooth.h"
 #include "video/video.h"
 
@@ -185,7 +186,8 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
     if (st == HD_OK)
         memcpy(out->data, frame->data, (size_t)frame->width * frame->height * 3 * sizeof(float));
     for (int i = 0; i < MAX_TRACKS; i++) v->tracks[i].seen = 0;
-    hd_image tex = {0};
+    hd_light_rgb target;
+    hd_light_rgb_from_grey(v->light, &target);
     int done = 0;
     for (int k = 0; k < n && st == HD_OK; k++) {
         hd_aligned_face *f = &faces[k];
@@ -201,11 +203,8 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
             info->has_light = 1;
             memcpy(info->light, d.light, sizeof info->light);
         }
-        if (st == HD_OK)
-            st = v->delight ? hd_delight(&f->texture, &d, &f->mask, &tex)
-                            : hd_relight(&f->texture, &d, &f->mask, v->light, v->brightness, &tex);
-        if (st == HD_OK) st = hd_warp_back_blend(f, &tex, HD_WARP_CHANGE, 0, out, NULL);
-        hd_image_free(&tex);
+        if (st == HD_OK) /* the photo's rule on the (smoothed) decomposition */
+            st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness, out);
         hd_decomposition_free(&d);
         if (st == HD_OK) done++;
     }
