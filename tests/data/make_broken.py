@@ -190,4 +190,13 @@ put("light_3e38.light.txt", "\n".join(["3.4e38"] + LIGHT[1:]) + "\n")
 # a terminal escape inside a token: refused, and printed as \x1b
 put("light_escape_sequence.light.txt", "\n".join(LIGHT[:2] + ["\x1b[2J\x1b[31mred"] + LIGHT[3:]) + "\n")
 
+
+# ---------------------------------------------------------------- fuzzer findings (tests/fuzz/)
+
+# fuzz_serve: a frame header of width 0 and height 128 behind a DQT; the server's header probe
+# took it as a size (0 pixels, under any cap) before refusing zero sides
+put("jpeg_probe_width_0.jpg",
+    b"\xff\xd8\xff\xdb\x00\x43\x00" + bytes([1] * 64) + b"\xff\xc0\x00\x0b\x08\x00\x80\x00\x00\x01\x01\x11\x00"
+    + bytes(16))
+
 print("wrote %d files into %s" % (len(written), OUT))

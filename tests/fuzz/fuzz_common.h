@@ -39,7 +39,7 @@ static const char *fuzz_folder(void)
 }
 
 /* Writes data to FOLDER/name and returns the path (a static buffer). */
-static const char *fuzz_write(const char *name, const uint8_t *data, size_t size)
+__attribute__((unused)) static const char *fuzz_write(const char *name, const uint8_t *data, size_t size)
 {
     static char path[256];
     snprintf(path, sizeof path, "%s/%s", fuzz_folder(), name);

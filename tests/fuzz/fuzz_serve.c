@@ -22,7 +22,7 @@ static void upload(const unsigned char *d, size_t n)
     long w = 0, h = 0;
     if (hd_picture_probe(d, n, "upload", &w, &h) != HD_OK) return;
     if (w <= 0 || h <= 0) abort();
-    if (w * h > 1000000) return; /* the server refuses it here, before decoding */
+    if ((double)w * (double)h > 1e6) return; /* the server refuses it here (in double), before decoding */
     hd_image rgb = {0};
     if (hd_picture_decode(d, n, "upload", &rgb) == HD_OK) {
         /* EXIF orientation may swap the sides, never change the count */

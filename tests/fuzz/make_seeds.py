@@ -10,7 +10,7 @@ Seeds: the synthetic set's PNGs (8 and 16 bit, RGB and gray), PFM shading and li
 from aligning the bundled astronaut photo; a small TF.js graph written here (Conv2D, Relu, Pad,
 MaxPool, Reshape) and the shipped face detector's JSON; every file of tests/data/broken of the
 target's kind; JPEG seeds are re-encodings of the synthetic images (through hdnet's own files,
-so no outside data); for serve, the PNG and JPEG seeds as uploads, JSON lights of every form the
+so no outside data); for serve, every PNG and JPEG seed as an upload, JSON lights of every form the
 page sends and query lights. The corpora are written fresh each time and never committed.
 """
 import base64
@@ -85,8 +85,8 @@ def small_graph():
 
 def serve_seeds():
     """fuzz_serve: byte 0 picks the part (0 upload, 1 JSON light, 2 query light)."""
-    for t in ("png", "jpeg"):
-        for name in sorted(os.listdir(os.path.join(OUT, t)))[:6]:
+    for t in ("png", "jpeg"):  # the broken files (its regression inputs among them) and good ones
+        for name in sorted(os.listdir(os.path.join(OUT, t))):
             put("serve", "upload_" + name, b"\x00" + read(os.path.join(OUT, t, name)))
     bodies = ['{"light": [0.8, -0.2, 0.3, 0.1, 0, 0, 0, 0, 0]}', '{"preset": 3}', '{"preset": 3, "brightness": "free"}',
               '{"azimuth": 30, "elevation": -10}', '{"azimuth": 30, "elevation": 10, "intensity": 0.9, "ambient": 0.4}',

@@ -21,6 +21,8 @@ cflags="-O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined -fno-
 failed=0
 "$python" "$here/make_seeds.py" "$hdnet" "$build/seeds" || exit 1
 export OMP_NUM_THREADS=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+# the harnesses write each input to a file: on a tmpfs that is six times faster than on a disk
+[ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ] && export TMPDIR=/dev/shm
 printf '%-12s %10s %8s %8s %7s  %s\n' target executions exec/s coverage corpus result
 for t in $targets; do
     case $t in

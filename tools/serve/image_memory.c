@@ -79,19 +79,28 @@ static hd_status probe_jpeg(const unsigned char *d, size_t n, const char *what, 
 hd_status hd_picture_probe(const unsigned char *data, size_t n, const char *what, long *width, long *height)
 {
     *width = *height = 0;
-    switch (hd_picture_sniff(data, n)) {
+    hd_status st;
+    const hd_picture_kind kind = hd_picture_sniff(data, n);
+    switch (kind) {
     case HD_PICTURE_PNG:
         /* signature, then the IHDR chunk: length 13, "IHDR", width, height */
         if (n < 24 || memcmp(data + 12, "IHDR", 4) != 0)
             return hd_fail(HD_ERR_FORMAT, "%s: bad PNG: no IHDR chunk", what);
         *width = (long)be32(data + 16);
         *height = (long)be32(data + 20);
-        return HD_OK;
-    case HD_PICTURE_JPEG:
-        return probe_jpeg(data, n, what, width, height);
-    default:
-        return hd_fail(HD_ERR_FORMAT, "%s: not a PNG or JPEG", what);
+        st = HD_OK;
+        break;
+    case HD_PICTURE_JPEG: st = probe_jpeg(data, n, what, width, height); break;
+    default: return hd_fail(HD_ERR_FORMAT, "%s: not a PNG or JPEG", what);
     }
+    /* a side of 0 (JPEG's "height from a DNL marker", or a broken header) is no size to check the
+     * pixel cap against: refused here, as the decoder would refuse it (fuzz_serve found it) */
+    if (st == HD_OK && (*width <= 0 || *height <= 0)) {
+        st = hd_fail(HD_ERR_FORMAT, "%s: bad %s: the header gives a size of %ldx%ld", what,
+                     kind == HD_PICTURE_PNG ? "PNG" : "JPEG", *width, *height);
+        *width = *height = 0;
+    }
+    return st;
 }
 
 /* The decoding and encoding are the library's (hd_image_decode, hd_image_encode): the same
