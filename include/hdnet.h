@@ -370,8 +370,9 @@ hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition
                                  const hd_apply_request *request, hd_apply_result *result);
 void hd_apply_result_free(hd_apply_result *result);
 
-/* The same with a model: each decomposes its aligned face texture(s) one at a time, then calls
- * the function above (texture in, texture out; the cores of the hdnet commands). */
+/* Grey-light shortcuts with a model, texture in, texture out: each decomposes its aligned face
+ * texture(s) one at a time and applies the ratio rule (hd_apply_texture; hd_delight_face keeps the
+ * brightness). */
 hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image *mask,
                           const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out);
@@ -403,10 +404,9 @@ int hd_photo_texture_size(const hd_model *model);
  * HD_ERR_NOTFOUND ("no face found"). Free with hd_aligned_faces_free. */
 hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_image *photo,
                          struct hd_aligned_face **faces, int *count);
-/* Relights every face of a photo (3 channels) under each of `count` lights (count may be 0): per
- * face, one decomposition of its texture, hd_relight inside the face's mask, then the relit
- * texture warped back and Poisson-blended into relit[i] (a copy of the photo; HD_WARP_CHANGE).
- * delit (may be NULL) gets the delit faces likewise. *nfaces (may be NULL) gets the faces done.
+/* Relights every face of a photo (3 channels) under each of `count` grey lights (count may be 0)
+ * by the ratio rule: hd_apply_photo with HD_RULE_RATIO, relit[i] a copy of the photo with every
+ * face changed, feathered from its edge. delit (may be NULL) gets the delit faces likewise. *nfaces (may be NULL) gets the faces done.
  * No face: HD_ERR_NOTFOUND and nothing allocated. Pixels outside the faces keep the photo exactly. */
 hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
                            const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness,
