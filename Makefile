@@ -90,7 +90,10 @@ endif
 TESTSRC := $(sort $(wildcard tests/test_*.c))
 TESTBIN := $(TESTSRC:tests/%.c=$(BUILD)/tests/%)
 # Every object and test depends on the headers it includes (gcc -MMD -MP writes BUILD/...d beside it).
-DEPFLAGS = -MMD -MP
+# The .d names the target both relative to here and absolute: `make test` builds again with
+# BUILD=/abs/path (tests/install.sh), and a .d naming only that path left a later `make` with
+# the relative BUILD blind to header changes (stale objects linked against a changed struct).
+DEPFLAGS = -MMD -MP -MT $(patsubst $(CURDIR)/%,%,$(abspath $@)) -MT $(abspath $@)
 
 all: hdnet $(BUILD)/libhdnet.so
 
