@@ -212,6 +212,12 @@ static void test_gradients(void)
         t.weights.w[k] = 1.0f;
         check_gradients(&t, hd_loss_names[k], 0, 1, 1e-3f);
     }
+    /* the scale anchor on the pair's mean shading */
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_SHADING_MEAN] = 1.0f;
+    t.losses.shading_mean_pair = 1;
+    check_gradients(&t, "shading_mean (pair)", 0, 1, 1e-3f);
+    t.losses.shading_mean_pair = 0;
     t.weights = all;
     /* the domain weight scales every term but L_adv: at weight 0 they vanish, and doubling it
      * doubles them */
@@ -288,11 +294,11 @@ static void test_paths(void)
         for (size_t i = 0; i < B * HD_SH_COEFFS; i++) n->d_light[i] = hd_rng_range(&g, -1.0f, 1.0f);
         hd_net_backward(n, HD_TRAIN_ALL);
         /* the discriminator on the albedo */
-        memcpy(n->d_in, n->albedo, B * 3 * HW * sizeof(float));
+        memcpy(n->disc_in, n->albedo, B * 3 * HW * sizeof(float));
         hd_disc_forward(n);
         size_t np = (size_t)B * hd_disc_patches(n);
-        for (size_t i = 0; i < np; i++) n->g_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
-        memset(n->g_in, 0, B * 3 * HW * sizeof(float));
+        for (size_t i = 0; i < np; i++) n->d_disc_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        memset(n->d_disc_in, 0, B * 3 * HW * sizeof(float));
         memset(n->disc_grads, 0, n->disc_table.total * sizeof(float));
         hd_disc_backward(n, 1, 1);
     }
@@ -302,9 +308,9 @@ static void test_paths(void)
         {"normal", fast.normal, ref.normal, B * 3 * HW},
         {"light", fast.light, ref.light, B * HD_SH_COEFFS},
         {"HD-Net gradients", fast.grads, ref.grads, fast.table.total},
-        {"discriminator logits", fast.dlogit, ref.dlogit, (size_t)B * hd_disc_patches(&fast)},
+        {"discriminator logits", fast.disc_logit, ref.disc_logit, (size_t)B * hd_disc_patches(&fast)},
         {"discriminator gradients", fast.disc_grads, ref.disc_grads, fast.disc_table.total},
-        {"discriminator input gradient", fast.g_in, ref.g_in, B * 3 * HW},
+        {"discriminator input gradient", fast.d_disc_in, ref.d_disc_in, B * 3 * HW},
     };
     for (size_t k = 0; k < sizeof cmp / sizeof cmp[0]; k++) {
         double d = max_rel_diff(cmp[k].a, cmp[k].b, cmp[k].n);
@@ -806,6 +812,76 @@ static void test_albedo_supervised(void)
     hd_trainer_free(&t);
 }
 
+/* ---- the scale anchor by hand, per image and on the pair: |mean_m S - c| */
+
+static void test_shading_mean(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 2)) return;
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    size_t HW = 32 * 32;
+    double mean[4];
+    for (int b = 0; b < 4; b++) {
+        double num = 0, den = 0;
+        for (size_t p = 0; p < HW; p++) {
+            num += t.batch.mask[b * HW + p] * t.net.shading[b * HW + p];
+            den += t.batch.mask[b * HW + p];
+        }
+        mean[b] = num / den;
+    }
+    double c = t.losses.shading_mean, want_image = 0, want_pair = 0;
+    for (int b = 0; b < 4; b++) {
+        want_image += t.batch.weight[b] * fabs(mean[b] - c);
+        want_pair += t.batch.weight[b] * fabs(0.5 * (mean[b & ~1] + mean[b | 1]) - c);
+    }
+    CHECK(want_image > 1e-3);
+    CHECK_NEAR(r.terms[HD_LOSS_SHADING_MEAN], want_image / 2, 1e-5);
+    t.losses.shading_mean_pair = 1;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK_NEAR(r.terms[HD_LOSS_SHADING_MEAN], want_pair / 2, 1e-5);
+    /* a target between the pair's two means: the pair term is smaller than the image term */
+    t.losses.shading_mean = (float)(0.5 * (mean[0] + mean[1]));
+    t.losses.shading_mean_pair = 0;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    double image_term = r.terms[HD_LOSS_SHADING_MEAN];
+    t.losses.shading_mean_pair = 1;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_SHADING_MEAN] < image_term || mean[0] == mean[1]);
+    hd_trainer_free(&t);
+}
+
+/* ---- --light-target image: on a face of even albedo a and light l0 over the coarse normals, l_hat
+ * is l0 scaled so that the mean of its shading over the mask is c, whatever a is */
+
+static void test_light_from_image(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 2)) return;
+    size_t HW = 32 * 32;
+    const float l0[HD_SH_COEFFS] = {0.9f, 0.1f, 0.3f, -0.25f, 0.05f, 0.02f, -0.04f, 0.03f, 0.06f};
+    const float *n = t.batch.coarse_normal;
+    double ms = 0, mS = 0;
+    for (size_t p = 0; p < HW; p++) {
+        float q[3] = {n[p], n[HW + p], n[2 * HW + p]}, g[3];
+        float s = hd_sh_shade_grad(l0, q, g);
+        for (int c = 0; c < 3; c++) t.batch.image[c * HW + p] = 0.37f * s;
+        ms += t.batch.mask[p];
+        mS += t.batch.mask[p] * s;
+    }
+    CHECK(t.batch.has_normal[0]);
+    t.losses.light_from_image = 1;
+    t.stage = HD_TRAIN_STAGE_1;
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    double k = t.losses.shading_mean * ms / mS;
+    for (int c = 0; c < HD_SH_COEFFS; c++) CHECK_NEAR(t.losses.light_hat[c], k * l0[c], 2e-4);
+    /* the fit leaves the backward's accumulator clear: the gradients equal those of a net whose
+     * l_hat came from anywhere (checked by finite differences with l_hat held) */
+    for (size_t p = 0; p < 4 * HW; p++) CHECK(t.losses.d_shade[p] == 0.0f);
+    hd_trainer_free(&t);
+}
+
 int main(void)
 {
     hd_set_threads(1); /* tiny shapes: threads only add overhead */
@@ -815,6 +891,8 @@ int main(void)
     test_micro_batch();
     test_paths();
     test_albedo_supervised();
+    test_shading_mean();
+    test_light_from_image();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();

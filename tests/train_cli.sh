@@ -87,6 +87,12 @@ awk "BEGIN { exit !($(agt gtrun/loss.csv) > 0.01) }" || fail "albedo_gt should b
 [ "$(sed -n 2p gtrun/loss.csv | cut -d, -f7)" != "$(sed -n 2p run/loss.csv | cut -d, -f7)" ] ||
     fail "--light-target gt did not change the light loss"
 expect 2 $H train data -o y --prior-normals nope
+# l_hat from the image's luminance: the light term changes, the image terms of step 1 do not
+expect 0 $H train data -o imgrun $T --iters 2 --every 2 --light-target image
+[ "$(sed -n 2p imgrun/loss.csv | cut -d, -f3-6)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-6)" ] ||
+    fail "--light-target image changed a term that does not read l_hat"
+[ "$(sed -n 2p imgrun/loss.csv | cut -d, -f7)" != "$(sed -n 2p run/loss.csv | cut -d, -f7)" ] ||
+    fail "--light-target image did not change the light loss"
 # the scale anchor: a ninth column, on by default, 0 when its weight is 0 (only the total changes)
 head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column: $(head -1 run/loss.csv)"
 expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
@@ -96,6 +102,14 @@ awk -F, 'NR == 2 { exit !($11 > 0) }' run/loss.csv || fail "shading_mean should 
 [ "$(sed -n 2p noanchor/loss.csv | cut -d, -f2)" != "$(sed -n 2p run/loss.csv | cut -d, -f2)" ] ||
     fail "the anchor's weight did not change the total"
 expect 2 $H train data -o y --shading-mean 0
+expect 2 $H train data -o y --shading-mean-over subject
+# on the pair: where both images' mean shadings lie on one side of c (c = 50), the pair's term
+# and gradient equal the per-image ones, so the whole first two rows agree (test_model checks
+# the case between them)
+expect 0 $H train data -o imageanchor $T --iters 2 --every 2 --shading-mean 50
+expect 0 $H train data -o pairanchor $T --iters 2 --every 2 --shading-mean 50 --shading-mean-over pair
+[ "$(cut -d, -f2-12 pairanchor/loss.csv)" = "$(cut -d, -f2-12 imageanchor/loss.csv)" ] ||
+    fail "--shading-mean-over pair differs from the image anchor with both means below c"
 
 # mixed domains: a second set without ground truth (the images of another synth set, alone);
 # drawn from it only (--real-share 1) the ground-truth term reads nothing, drawn never it does,

@@ -61,7 +61,8 @@ static void on_progress(const hd_train_progress *p, void *user)
 
 int cmd_train(int argc, char **argv)
 {
-    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit";
+    const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit",
+               *anchor_over = "image";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0;
     float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
@@ -96,6 +97,8 @@ int cmd_train(int argc, char **argv)
          "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
         {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",
          "the scale anchor's target mean shading over the face (default 0.8)"},
+        {"shading-mean-over", 0, CLI_OPT_STRING, &anchor_over, "image|pair",
+         "the scale anchor on each image's mean shading (default) or on the mean of the pair's two"},
         {"real", 0, CLI_OPT_STRING, &real_dir, "DIR",
          "a second set (aligned photos, no ground truth) whose pairs are mixed into every batch"},
         {"real-share", 0, CLI_OPT_FLOAT, &real_share, "F", "probability that a pair comes from --real (default 0.5)"},
@@ -103,8 +106,9 @@ int cmd_train(int argc, char **argv)
         {"mirror-pairs", 0, CLI_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
         {"prior-normals", 0, CLI_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
-        {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt",
-         "l_hat of L_l: the least-squares fit (default) or, not the paper's, NAME.light.txt where present"},
+        {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt|image",
+         "l_hat of L_l: the least-squares fit of S (default) or, not the paper's, NAME.light.txt where"
+         " present, or the fit of the image's luminance scaled to --shading-mean (no ground truth)"},
         {"every", 0, CLI_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
         {"seed", 0, CLI_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, CLI_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
@@ -137,8 +141,8 @@ int cmd_train(int argc, char **argv)
     if (resume && init) return cli_usage_error(&spec, "--resume and --init exclude each other");
     if (strcmp(prior, "coarse") != 0 && strcmp(prior, "gt") != 0)
         return cli_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
-    if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0)
-        return cli_usage_error(&spec, "--light-target must be fit or gt, not '%s'", light_target);
+    if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0 && strcmp(light_target, "image") != 0)
+        return cli_usage_error(&spec, "--light-target must be fit, gt or image, not '%s'", light_target);
 
     hd_train_options o;
     hd_train_defaults(&o);
@@ -163,8 +167,12 @@ int cmd_train(int argc, char **argv)
     o.every = every;
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;
+    o.light_target_image = strcmp(light_target, "image") == 0;
     if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return cli_usage_error(&spec, "--shading-mean must be in (0, 100)");
     o.shading_mean = shading_mean;
+    if (strcmp(anchor_over, "image") != 0 && strcmp(anchor_over, "pair") != 0)
+        return cli_usage_error(&spec, "--shading-mean-over must be image or pair, not '%s'", anchor_over);
+    o.shading_mean_pair = strcmp(anchor_over, "pair") == 0;
     if (!(real_share >= 0.0f && real_share <= 1.0f)) return cli_usage_error(&spec, "--real-share must be in [0, 1]");
     if (!(real_weight >= 0.0f && real_weight < 1e6f)) return cli_usage_error(&spec, "--real-weight must not be negative");
     if (mirror && !real_dir) return cli_usage_error(&spec, "--mirror-pairs needs --real DIR");

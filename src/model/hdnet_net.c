@@ -175,24 +175,24 @@ static void layout(hd_net *net, carver *c)
     net->d_l_h2 = carve(c, n2);
     net->d_l_pool = carve(c, B * HD_LNET_HIDDEN);
     net->d_light = carve(c, B * HD_SH_COEFFS);
-    net->d_in = carve(c, B * 3 * HW);
-    net->g_in = carve(c, B * 3 * HW);
+    net->disc_in = carve(c, B * 3 * HW);
+    net->d_disc_in = carve(c, B * 3 * HW);
     size_t d1 = B * 64 * (size_t)net->Hd[0] * net->Wd[0];
-    net->dc1 = carve(c, d1);
-    net->g_c1 = carve(c, d1);
+    net->disc_h1 = carve(c, d1);
+    net->d_disc_h1 = carve(c, d1);
     for (int k = 0; k < 3; k++) {
         size_t C = (size_t)disc_channels[k + 2], n = B * C * net->Hd[k + 1] * net->Wd[k + 1];
-        net->dpre[k] = carve(c, n);
-        net->dnorm[k] = carve(c, n);
-        net->dact[k] = carve(c, n);
-        net->g_pre[k] = carve(c, n);
-        net->g_norm[k] = carve(c, n);
-        net->g_act[k] = carve(c, n);
-        net->dmean[k] = carve(c, B * C);
-        net->drstd[k] = carve(c, B * C);
+        net->disc_pre[k] = carve(c, n);
+        net->disc_norm[k] = carve(c, n);
+        net->disc_act[k] = carve(c, n);
+        net->d_disc_pre[k] = carve(c, n);
+        net->d_disc_norm[k] = carve(c, n);
+        net->d_disc_act[k] = carve(c, n);
+        net->disc_mean[k] = carve(c, B * C);
+        net->disc_rstd[k] = carve(c, B * C);
     }
-    net->dlogit = carve(c, B * (size_t)net->Hp * net->Wp);
-    net->g_logit = carve(c, B * (size_t)net->Hp * net->Wp);
+    net->disc_logit = carve(c, B * (size_t)net->Hp * net->Wp);
+    net->d_disc_logit = carve(c, B * (size_t)net->Hp * net->Wp);
 }
 
 /* weights NULL: the net owns zeroed parameters; else it reads the caller's (inference only). */
@@ -228,7 +228,7 @@ static hd_status net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net
     net->W2 = hd_conv3x3_out_w(net->l_conv2);
     if (mode == HD_NET_TRAIN) {
         hd_disc_param_table(&net->disc_table);
-        hd_conv3x3 **plans[4] = {&net->d_c1, &net->d_c2, &net->d_c3, &net->d_c4};
+        hd_conv3x3 **plans[4] = {&net->disc_c1, &net->disc_c2, &net->disc_c3, &net->disc_c4};
         int h = H, wd = H;
         for (int k = 0; k < 4; k++) {
             TRY(hd_conv3x3_plan(plans[k], B, disc_channels[k], h, wd, disc_channels[k + 1], 2,
@@ -236,9 +236,9 @@ static hd_status net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net
             h = net->Hd[k] = hd_conv3x3_out_h(*plans[k]);
             wd = net->Wd[k] = hd_conv3x3_out_w(*plans[k]);
         }
-        TRY(hd_conv3x3_plan(&net->d_out, B, 512, h, wd, 1, 1, HD_ACT_NONE, 0.0f, path));
-        net->Hp = hd_conv3x3_out_h(net->d_out);
-        net->Wp = hd_conv3x3_out_w(net->d_out);
+        TRY(hd_conv3x3_plan(&net->disc_out, B, 512, h, wd, 1, 1, HD_ACT_NONE, 0.0f, path));
+        net->Hp = hd_conv3x3_out_h(net->disc_out);
+        net->Wp = hd_conv3x3_out_w(net->disc_out);
     }
 #undef TRY
 
@@ -295,7 +295,7 @@ void hd_net_free(hd_net *net)
     hd_unet_free(net->a_net);
     hd_unet_free(net->s_net);
     hd_unet_free(net->n_net);
-    hd_conv3x3 *plans[] = {net->conv_in, net->l_conv1, net->l_conv2, net->d_c1, net->d_c2, net->d_c3, net->d_c4, net->d_out};
+    hd_conv3x3 *plans[] = {net->conv_in, net->l_conv1, net->l_conv2, net->disc_c1, net->disc_c2, net->disc_c3, net->disc_c4, net->disc_out};
     for (size_t i = 0; i < sizeof plans / sizeof plans[0]; i++) hd_conv3x3_free(plans[i]);
     free(net->act_mem);
     if (!net->weights_borrowed) free(net->params);
@@ -422,20 +422,20 @@ void hd_disc_forward(hd_net *net)
 {
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
-    hd_conv3x3 *plans[3] = {net->d_c2, net->d_c3, net->d_c4};
+    hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
     double t = clock_start(net);
     /* c1: lrelu_0.2(conv(x)) */
-    hd_conv3x3_forward(net->d_c1, net->dc1, net->d_in, DP("disc.c1.weight"), DP("disc.c1.bias"));
-    const float *prev = net->dc1;
+    hd_conv3x3_forward(net->disc_c1, net->disc_h1, net->disc_in, DP("disc.c1.weight"), DP("disc.c1.bias"));
+    const float *prev = net->disc_h1;
     for (int k = 0; k < 3; k++) {
         int C = disc_channels[k + 2], hw = net->Hd[k + 1] * net->Wd[k + 1];
         /* ck: lrelu_0.2(instnorm(conv(prev))) */
-        hd_conv3x3_forward(plans[k], net->dpre[k], prev, DP(wn[k]), DP(bn[k]));
-        hd_instnorm_forward(net->dnorm[k], net->dmean[k], net->drstd[k], net->dpre[k], net->B, C, hw, HD_INSTNORM_EPS);
-        hd_lrelu_forward(net->dact[k], net->dnorm[k], (size_t)net->B * C * hw, HD_DISC_LRELU);
-        prev = net->dact[k];
+        hd_conv3x3_forward(plans[k], net->disc_pre[k], prev, DP(wn[k]), DP(bn[k]));
+        hd_instnorm_forward(net->disc_norm[k], net->disc_mean[k], net->disc_rstd[k], net->disc_pre[k], net->B, C, hw, HD_INSTNORM_EPS);
+        hd_lrelu_forward(net->disc_act[k], net->disc_norm[k], (size_t)net->B * C * hw, HD_DISC_LRELU);
+        prev = net->disc_act[k];
     }
-    hd_conv3x3_forward(net->d_out, net->dlogit, prev, DP("disc.out.weight"), DP("disc.out.bias"));
+    hd_conv3x3_forward(net->disc_out, net->disc_logit, prev, DP("disc.out.weight"), DP("disc.out.bias"));
     lap(net, 0, HD_STAGE_DISC, &t);
 }
 
@@ -443,30 +443,30 @@ void hd_disc_backward(hd_net *net, int want_input, int want_params)
 {
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
-    hd_conv3x3 *plans[3] = {net->d_c2, net->d_c3, net->d_c4};
+    hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
     size_t B = (size_t)net->B;
     double t = clock_start(net);
-    memset(net->g_c1, 0, B * 64 * (size_t)net->Hd[0] * net->Wd[0] * sizeof(float));
+    memset(net->d_disc_h1, 0, B * 64 * (size_t)net->Hd[0] * net->Wd[0] * sizeof(float));
     for (int k = 0; k < 3; k++) {
         size_t n = B * (size_t)disc_channels[k + 2] * net->Hd[k + 1] * net->Wd[k + 1] * sizeof(float);
-        memset(net->g_pre[k], 0, n);
-        memset(net->g_norm[k], 0, n);
-        memset(net->g_act[k], 0, n);
+        memset(net->d_disc_pre[k], 0, n);
+        memset(net->d_disc_norm[k], 0, n);
+        memset(net->d_disc_act[k], 0, n);
     }
     /* forward: logit = conv(act3) */
-    hd_conv3x3_backward(net->d_out, net->g_act[2], DG("disc.out.weight"), DG("disc.out.bias"), net->g_logit,
-                        net->dlogit, net->dact[2], DP("disc.out.weight"));
+    hd_conv3x3_backward(net->disc_out, net->d_disc_act[2], DG("disc.out.weight"), DG("disc.out.bias"), net->d_disc_logit,
+                        net->disc_logit, net->disc_act[2], DP("disc.out.weight"));
     for (int k = 2; k >= 0; k--) {
         int C = disc_channels[k + 2], hw = net->Hd[k + 1] * net->Wd[k + 1];
         /* forward: act = lrelu_0.2(norm), norm = instnorm(pre), pre = conv(prev) */
-        hd_lrelu_backward(net->g_norm[k], net->g_act[k], net->dnorm[k], B * C * hw, HD_DISC_LRELU);
-        hd_instnorm_backward(net->g_pre[k], net->g_norm[k], net->dnorm[k], net->drstd[k], net->B, C, hw);
-        float *gprev = k ? net->g_act[k - 1] : net->g_c1;
-        const float *prev = k ? net->dact[k - 1] : net->dc1;
-        hd_conv3x3_backward(plans[k], gprev, DG(wn[k]), DG(bn[k]), net->g_pre[k], net->dpre[k], prev, DP(wn[k]));
+        hd_lrelu_backward(net->d_disc_norm[k], net->d_disc_act[k], net->disc_norm[k], B * C * hw, HD_DISC_LRELU);
+        hd_instnorm_backward(net->d_disc_pre[k], net->d_disc_norm[k], net->disc_norm[k], net->disc_rstd[k], net->B, C, hw);
+        float *gprev = k ? net->d_disc_act[k - 1] : net->d_disc_h1;
+        const float *prev = k ? net->disc_act[k - 1] : net->disc_h1;
+        hd_conv3x3_backward(plans[k], gprev, DG(wn[k]), DG(bn[k]), net->d_disc_pre[k], net->disc_pre[k], prev, DP(wn[k]));
     }
     /* forward: c1 = lrelu_0.2(conv(x)) */
-    hd_conv3x3_backward(net->d_c1, want_input ? net->g_in : NULL, DG("disc.c1.weight"), DG("disc.c1.bias"),
-                        net->g_c1, net->dc1, net->d_in, DP("disc.c1.weight"));
+    hd_conv3x3_backward(net->disc_c1, want_input ? net->d_disc_in : NULL, DG("disc.c1.weight"), DG("disc.c1.bias"),
+                        net->d_disc_h1, net->disc_h1, net->disc_in, DP("disc.c1.weight"));
     lap(net, 1, HD_STAGE_DISC, &t);
 }

@@ -93,7 +93,7 @@ typedef struct hd_net {
 
     hd_unet *a_net, *s_net, *n_net;
     hd_conv3x3 *conv_in, *l_conv1, *l_conv2;
-    hd_conv3x3 *d_c1, *d_c2, *d_c3, *d_c4, *d_out;
+    hd_conv3x3 *disc_c1, *disc_c2, *disc_c3, *disc_c4, *disc_out;
     int Hb, Wb, H1, W1, H2, W2; /* bottleneck, l_net conv1 and conv2 output sides */
     int Hd[4], Wd[4], Hp, Wp;   /* discriminator sides after c1..c4, and of the patch logits */
 
@@ -120,12 +120,13 @@ typedef struct hd_net {
     /* gradients of activations (TRAIN only) */
     float *d_feat, *d_a_logit, *d_albedo, *d_s_logit, *d_shading, *d_n_logit, *d_n_tanh, *d_normal;
     float *d_bottleneck, *d_l_h1, *d_l_h2, *d_l_pool, *d_light;
-    /* discriminator activations (TRAIN only): c1 output; per c2..c4 pre-norm, normed, activated */
-    float *d_in;                 /* (B, 3, HW) the discriminator's input */
-    float *dc1;                  /* (B, 64, Hd0 Wd0) */
-    float *dpre[3], *dnorm[3], *dact[3], *dmean[3], *drstd[3];
-    float *dlogit;               /* (B, 1, Hp Wp) */
-    float *g_in, *g_c1, *g_pre[3], *g_norm[3], *g_act[3], *g_logit; /* their gradients */
+    /* discriminator activations (TRAIN only; names: disc_ is the discriminator, d_ a gradient
+     * everywhere): c1 output; per c2..c4 pre-norm, normed, activated */
+    float *disc_in;    /* (B, 3, HW) the discriminator's input */
+    float *disc_h1;    /* (B, 64, Hd0 Wd0) */
+    float *disc_pre[3], *disc_norm[3], *disc_act[3], *disc_mean[3], *disc_rstd[3];
+    float *disc_logit; /* (B, 1, Hp Wp) */
+    float *d_disc_in, *d_disc_h1, *d_disc_pre[3], *d_disc_norm[3], *d_disc_act[3], *d_disc_logit; /* their gradients */
 } hd_net;
 
 /* Makes a network for batches of B images at cfg->size; parameters are allocated (zeroed: load or
@@ -149,10 +150,10 @@ void hd_net_zero_act_grad(hd_net *net);
  * The activation gradients are consumed (overwritten). */
 void hd_net_backward(hd_net *net, hd_net_train_set set);
 
-/* Discriminator forward of net->d_in (B, 3, HW) into net->dlogit (B, 1, Hp, Wp). */
+/* Discriminator forward of net->disc_in (B, 3, HW) into net->disc_logit (B, 1, Hp, Wp). */
 void hd_disc_forward(hd_net *net);
-/* Discriminator backward of the last forward from net->g_logit (consumed): accumulates the input
- * gradient into net->g_in when want_input, and parameter gradients into net->disc_grads when
+/* Discriminator backward of the last forward from net->d_disc_logit (consumed): accumulates the input
+ * gradient into net->d_disc_in when want_input, and parameter gradients into net->disc_grads when
  * want_params. */
 void hd_disc_backward(hd_net *net, int want_input, int want_params);
 /* Number of patch logits per image. */

@@ -107,6 +107,34 @@ float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3
            l[6] * c3 * (3 * y * y - 1) + l[7] * c2 * x * y + l[8] * c4 * (x * x - z * z);
 }
 
+/* --light-target image: l_hat of image b is the least-squares light of the image's luminance on
+ * the normals n (as if the albedo were even), scaled so that the mean of s(n, l_hat) over the
+ * mask is the scale anchor's c. It reads the photo and the normals only, never S: a shading that
+ * has collapsed to a constant (which the paper's terms and the anchor accept, with a DC light)
+ * is still pulled by L_l and L_Srec toward the shape of the light the photo shows. Uses image b's
+ * part of L->d_shade as scratch (and leaves it zero, as the backward expects). */
+static hd_status light_from_image(hd_losses *L, int b, const float *n)
+{
+    hd_net *net = L->net;
+    int HW = net->H * net->W;
+    const float *I = L->batch->image + (size_t)b * 3 * HW, *m = L->batch->mask + (size_t)b * HW;
+    float *Y = L->d_shade + (size_t)b * HW, *l = L->light_hat + (size_t)b * HD_SH_COEFFS;
+    for (int p = 0; p < HW; p++) Y[p] = 0.2126f * I[p] + 0.7152f * I[HW + p] + 0.0722f * I[2 * HW + p];
+    hd_status st = hd_sh_fit(n, Y, m, HW, l);
+    memset(Y, 0, (size_t)HW * sizeof(float)); /* d_shade is the backward's accumulator: leave it clear */
+    if (st != HD_OK) return st;
+    double ms = 0, mS = 0;
+    for (int p = 0; p < HW; p++) {
+        float q[3] = {n[p], n[HW + p], n[2 * HW + p]}, g[3];
+        ms += m[p];
+        mS += (double)m[p] * hd_sh_shade_grad(l, q, g);
+    }
+    if (!(ms > 0 && mS > 0)) return HD_OK; /* no face or a dark fit: keep the fit as it is */
+    float k = (float)(L->shading_mean * ms / mS);
+    for (int c = 0; c < HD_SH_COEFFS; c++) l[c] *= k;
+    return HD_OK;
+}
+
 hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target)
 {
     hd_net *net = L->net;
@@ -130,7 +158,9 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         }
         const float *src = target == HD_LIGHT_FROM_COARSE && batch->has_normal[b]
                                ? batch->coarse_normal + (size_t)b * 3 * HW : N;
-        hd_status st = hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW, L->light_hat + (size_t)b * HD_SH_COEFFS);
+        hd_status st = L->light_from_image ? light_from_image(L, b, src)
+                                           : hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW,
+                                                       L->light_hat + (size_t)b * HD_SH_COEFFS);
         if (st != HD_OK) return st;
         for (int k = 0; k < HD_SH_COEFFS; k++)
             if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
@@ -231,26 +261,51 @@ double hd_loss_albedo_supervised(hd_losses *L, float scale)
  * this prior pins the mean shading over the mask, |mean_m S - c| per image, summed over i and j,
  * mean over pairs. L1, so that its pull is bounded: a squared form turned one spike of the shading
  * (mean 20) into a gradient 4,000 times its usual size, and the run's softplus saturated for good.
- * Gradient: dS_p = sign(mean - c) m_p / sum m. */
+ * Gradient: dS_p = sign(mean - c) m_p / sum m. On the pair (L->shading_mean_pair) the deviation
+ * d = (mean_i + mean_j) / 2 - c is shared by both images (each counted, as above, so the term has
+ * the same size): only the subject's scale is pinned, and images of one subject under a brighter
+ * and a darker light no longer pull their shading toward one mean against L_a. */
+static double mean_over_mask(const float *S, const float *m, int HW, double *ms_out)
+{
+    double ms = 0, mS = 0;
+    for (int p = 0; p < HW; p++) {
+        ms += m[p];
+        mS += (double)m[p] * S[p];
+    }
+    *ms_out = ms;
+    return ms > 0 ? mS / ms : 0;
+}
+
 double hd_loss_shading_mean(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
     double sum = 0;
-    for (int b = 0; b < B; b++) {
-        const float *S = net->shading + (size_t)b * HW, *m = L->batch->mask + (size_t)b * HW;
-        double ms = 0, mS = 0;
-        for (int p = 0; p < HW; p++) {
-            ms += m[p];
-            mS += (double)m[p] * S[p];
+    for (int p = 0; p < P; p++) {
+        double mean[2], ms[2], d[2];
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            mean[k] = mean_over_mask(net->shading + (size_t)b * HW, L->batch->mask + (size_t)b * HW, HW, &ms[k]);
         }
-        if (ms <= 0) continue;
-        double d = mS / ms - L->shading_mean;
-        sum += wgt(L, b) * fabs(d);
-        if (scale == 0.0f) continue;
-        float g = (float)(scale * wgt(L, b) / P * (double)((d > 0) - (d < 0)) / ms);
-        float *dS = net->d_shading + (size_t)b * HW;
-        for (int p = 0; p < HW; p++) dS[p] += g * m[p];
+        for (int k = 0; k < 2; k++) d[k] = mean[k] - L->shading_mean;
+        if (L->shading_mean_pair && ms[0] > 0 && ms[1] > 0) d[0] = d[1] = 0.5 * (mean[0] + mean[1]) - L->shading_mean;
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            if (ms[k] <= 0) continue;
+            sum += wgt(L, b) * fabs(d[k]);
+            if (scale == 0.0f) continue;
+            double sign = (double)((d[k] > 0) - (d[k] < 0));
+            float *dS = net->d_shading + (size_t)b * HW;
+            const float *m = L->batch->mask + (size_t)b * HW;
+            if (L->shading_mean_pair && ms[0] > 0 && ms[1] > 0) {
+                /* d depends on both images: image b's pixels get the pull of both terms */
+                float g = (float)(scale * (wgt(L, 2 * p) + wgt(L, 2 * p + 1)) / P * sign * 0.5 / ms[k]);
+                for (int q = 0; q < HW; q++) dS[q] += g * m[q];
+            } else {
+                float g = (float)(scale * wgt(L, b) / P * sign / ms[k]);
+                for (int q = 0; q < HW; q++) dS[q] += g * m[q];
+            }
+        }
     }
     return sum / P;
 }
@@ -324,17 +379,17 @@ double hd_loss_adversarial(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
-    memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
+    memcpy(net->disc_in, L->render, B * 3 * HW * sizeof(float));
     hd_disc_forward(net);
-    memset(net->g_logit, 0, n * sizeof(float));
-    double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    memset(net->d_disc_logit, 0, n * sizeof(float));
+    double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? net->d_disc_logit : NULL, net->disc_logit, n, 1, 2.0f * scale);
     if (scale == 0.0f) return loss;
-    memset(net->g_in, 0, B * 3 * HW * sizeof(float));
+    memset(net->d_disc_in, 0, B * 3 * HW * sizeof(float));
     hd_disc_backward(net, 1, 0);
     /* render = m * A * s: dA += g * m * s, ds += sum_c g * m * A */
     for (size_t b = 0; b < B; b++) {
         const float *m = L->batch->mask + b * HW, *s = L->shade + b * HW, *A = net->albedo + b * 3 * HW;
-        const float *g = net->g_in + b * 3 * HW;
+        const float *g = net->d_disc_in + b * 3 * HW;
         float *dA = net->d_albedo + b * 3 * HW, *ds = L->d_shade + b * HW;
         for (size_t c = 0; c < 3; c++)
             for (size_t p = 0; p < HW; p++) {
@@ -354,18 +409,18 @@ double hd_loss_discriminator(hd_losses *L, float scale)
     int grad = scale != 0.0f;
     for (size_t b = 0; b < B; b++) {
         const float *m = L->batch->mask + b * HW, *I = L->batch->image + b * 3 * HW;
-        float *x = net->d_in + b * 3 * HW;
+        float *x = net->disc_in + b * 3 * HW;
         for (size_t c = 0; c < 3; c++)
             for (size_t p = 0; p < HW; p++) x[c * HW + p] = m[p] * I[c * HW + p];
     }
     hd_disc_forward(net);
-    memset(net->g_logit, 0, n * sizeof(float));
-    double real = 2.0 * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 1, 2.0f * scale);
+    memset(net->d_disc_logit, 0, n * sizeof(float));
+    double real = 2.0 * hd_loss_bce_logits(grad ? net->d_disc_logit : NULL, net->disc_logit, n, 1, 2.0f * scale);
     if (grad) hd_disc_backward(net, 0, 1);
-    memcpy(net->d_in, L->render, B * 3 * HW * sizeof(float));
+    memcpy(net->disc_in, L->render, B * 3 * HW * sizeof(float));
     hd_disc_forward(net);
-    memset(net->g_logit, 0, n * sizeof(float));
-    double fake = 2.0 * hd_loss_bce_logits(grad ? net->g_logit : NULL, net->dlogit, n, 0, 2.0f * scale);
+    memset(net->d_disc_logit, 0, n * sizeof(float));
+    double fake = 2.0 * hd_loss_bce_logits(grad ? net->d_disc_logit : NULL, net->disc_logit, n, 0, 2.0f * scale);
     if (grad) hd_disc_backward(net, 0, 1);
     return real + fake;
 }

@@ -58,6 +58,9 @@ typedef struct hd_losses {
     float *light_hat; /* (B, 9) l_hat, detached */
     int hold_light_hat; /* gradient checks only: keep light_hat as it is (detached for real) */
     float shading_mean; /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT unless changed) */
+    int shading_mean_pair; /* the anchor on the mean of the pair's two mean shadings, not on each image */
+    int light_from_image; /* l_hat fitted to the image's luminance instead of to S, scaled so that its
+                           * shading's mean over the mask is shading_mean (not the paper's) */
 } hd_losses;
 
 hd_status hd_losses_create(hd_losses *L, hd_net *net);
@@ -75,7 +78,8 @@ double hd_loss_light(hd_losses *L, float scale);
 double hd_loss_shading_reconstruction(hd_losses *L, float scale);
 /* Not the paper's: mean_m |A - A_gt| over the images that have a ground-truth albedo. */
 double hd_loss_albedo_supervised(hd_losses *L, float scale);
-/* Not the paper's, the scale anchor: mean over images of |mean_m S - c|, c = L->shading_mean. */
+/* Not the paper's, the scale anchor: mean over images of |mean_m S - c|, c = L->shading_mean; with
+ * L->shading_mean_pair, |(mean_m S_i + mean_m S_j) / 2 - c| for both images of a pair instead. */
 double hd_loss_shading_mean(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
