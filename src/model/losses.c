@@ -22,45 +22,6 @@ hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
     return HD_OK;
 }
 
-hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
-{
-    memset(b, 0, sizeof *b);
-    size_t B = 2 * (size_t)pairs, HW = (size_t)size * size;
-    b->pairs = pairs;
-    b->size = size;
-    b->image = hd_calloc(B * 3 * HW, sizeof(float));
-    b->mask = hd_calloc(B * HW, sizeof(float));
-    b->coarse_normal = hd_calloc(B * 3 * HW, sizeof(float));
-    b->has_normal = hd_calloc(B, 1);
-    b->albedo_gt = hd_calloc(B * 3 * HW, sizeof(float));
-    b->has_albedo = hd_calloc(B, 1);
-    b->light_gt = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
-    b->has_light = hd_calloc(B, 1);
-    b->weight = hd_calloc(B, sizeof(float));
-    if (b->weight)
-        for (size_t i = 0; i < B; i++) b->weight[i] = 1.0f;
-    if (!b->weight || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
-        !b->light_gt || !b->has_light) {
-        hd_pair_batch_free(b);
-        return HD_ERR_NOMEM;
-    }
-    return HD_OK;
-}
-
-void hd_pair_batch_free(hd_pair_batch *b)
-{
-    free(b->image);
-    free(b->mask);
-    free(b->coarse_normal);
-    free(b->has_normal);
-    free(b->albedo_gt);
-    free(b->has_albedo);
-    free(b->light_gt);
-    free(b->has_light);
-    free(b->weight);
-    memset(b, 0, sizeof *b);
-}
-
 hd_status hd_losses_create(hd_losses *L, hd_net *net)
 {
     memset(L, 0, sizeof *L);

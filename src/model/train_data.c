@@ -1,6 +1,6 @@
 /* train_data.c: the training data (train_data.h): the pairs of a dataset, pair q of (seed,
  * iteration), loading one sample into a batch slot (resized, masked where it has no normal,
- * flipped with its normals and light), and the loader thread that fills the next batch. */
+ * flipped with its normals and light), the batch itself (hd_pair_batch_alloc/free), and the loader thread that fills the next batch. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,6 +9,45 @@
 
 #define HD_DATA_STREAM 0x5eedda7aULL
 #define HD_LOAD_RETRIES 32
+
+hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
+{
+    memset(b, 0, sizeof *b);
+    size_t B = 2 * (size_t)pairs, HW = (size_t)size * size;
+    b->pairs = pairs;
+    b->size = size;
+    b->image = hd_calloc(B * 3 * HW, sizeof(float));
+    b->mask = hd_calloc(B * HW, sizeof(float));
+    b->coarse_normal = hd_calloc(B * 3 * HW, sizeof(float));
+    b->has_normal = hd_calloc(B, 1);
+    b->albedo_gt = hd_calloc(B * 3 * HW, sizeof(float));
+    b->has_albedo = hd_calloc(B, 1);
+    b->light_gt = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
+    b->has_light = hd_calloc(B, 1);
+    b->weight = hd_calloc(B, sizeof(float));
+    if (b->weight)
+        for (size_t i = 0; i < B; i++) b->weight[i] = 1.0f;
+    if (!b->weight || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
+        !b->light_gt || !b->has_light) {
+        hd_pair_batch_free(b);
+        return HD_ERR_NOMEM;
+    }
+    return HD_OK;
+}
+
+void hd_pair_batch_free(hd_pair_batch *b)
+{
+    free(b->image);
+    free(b->mask);
+    free(b->coarse_normal);
+    free(b->has_normal);
+    free(b->albedo_gt);
+    free(b->has_albedo);
+    free(b->light_gt);
+    free(b->has_light);
+    free(b->weight);
+    memset(b, 0, sizeof *b);
+}
 
 hd_status hd_pair_source_init(hd_pair_source *src, const hd_dataset *ds, int require_prior, int prior_gt, int *skipped,
                               int *first_skipped)
