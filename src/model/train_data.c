@@ -1,6 +1,7 @@
-/* train_data.c: the training data (train_data.h): the pairs of a dataset, pair q of (seed,
- * iteration), loading one sample into a batch slot (resized, masked where it has no normal,
- * flipped with its normals and light), the batch itself (hd_pair_batch_alloc/free), and the loader thread that fills the next batch. */
+/* train_data.c: the training data (train_data.h): the batch itself (hd_pair_batch_alloc/free),
+ * the pairs of a dataset, pair q of (seed, iteration), loading one sample into a batch slot
+ * (resized, masked where it has no normal, flipped with its normals and light), and the loader
+ * thread that fills the next batch. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
