@@ -136,6 +136,13 @@ fi
 HDNET_MAX_PIXELS=1000 $H info $S.png >out.log 2>err.log && fail "HDNET_MAX_PIXELS=1000 accepted a 32x32 image"
 grep -q "0000.png.*limit of 1000 pixels.*HDNET_MAX_PIXELS" err.log || fail "pixel limit message: $(cat err.log)"
 HDNET_MAX_PIXELS=1024 $H info $S.png >out.log 2>err.log || fail "HDNET_MAX_PIXELS=1024 refused 32x32: $(cat err.log)"
+# the same limit as an option before the command, over the environment variable
+$H --max-pixels 1000 info $S.png >out.log 2>err.log && fail "--max-pixels 1000 accepted a 32x32 image"
+grep -q "0000.png.*limit of 1000 pixels" err.log || fail "--max-pixels message: $(cat err.log)"
+HDNET_MAX_PIXELS=1000 $H --max-pixels 1024 info $S.png >out.log 2>err.log || fail "--max-pixels 1024 refused 32x32: $(cat err.log)"
+expect 2 $H --max-pixels 0 info $S.png
+expect 2 $H --max-pixels 12abc info $S.png
+expect 2 $H --max-pixels
 
 # ---------------------------------------------------------------- 4. stale temporaries
 mkdir -p stale

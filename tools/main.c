@@ -26,6 +26,8 @@ static void print_help(FILE *out)
         fprintf(out, "  %-16s %s\n", commands[i].name, commands[i].summary);
     fprintf(out, "  %-16s %s\n", "help", "this list; `hdnet help <command>` (= `hdnet <command> --help`) for one");
     fprintf(out, "\n  %-16s %s\n", "--version", "print the version and exit");
+    fprintf(out, "  %-16s %s\n", "--max-pixels N",
+            "before the command: the largest image any reader accepts (default 100000000; HDNET_MAX_PIXELS)");
     fprintf(out, "  %-16s %s\n", "-h, --help", "this list");
 }
 
@@ -47,6 +49,24 @@ static void fit_address_limit(char **argv)
 int main(int argc, char **argv)
 {
     fit_address_limit(argv);
+    if (argc < 2) {
+        print_help(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    /* hdnet --max-pixels N CMD ...: the readers' pixel limit (hd_set_max_pixels), before the command */
+    while (argc >= 2 && strcmp(argv[1], "--max-pixels") == 0) {
+        char *end = NULL;
+        long long n = argc >= 3 ? strtoll(argv[2], &end, 10) : 0;
+        if (argc < 3 || end == argv[2] || *end || n < 1 || n > 1000000000000LL) {
+            fprintf(stderr, "hdnet: --max-pixels wants a pixel count from 1 to 1000000000000%s%s%s\n",
+                    argc >= 3 ? ", not '" : "", argc >= 3 ? argv[2] : "", argc >= 3 ? "'" : "");
+            return CLI_EXIT_USAGE;
+        }
+        hd_set_max_pixels(n);
+        argc -= 2;
+        argv += 2;
+        argv[0] = "hdnet";
+    }
     if (argc < 2) {
         print_help(stderr);
         return CLI_EXIT_USAGE;
