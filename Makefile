@@ -147,10 +147,10 @@ $(BUILD)/serve_assets.c: $(PAGE) tools/serve/embed.sh
 $(BUILD)/serve_assets.o: $(BUILD)/serve_assets.c $(BUILD)/.deps-mmd
 	$(CC) $(CFLAGS) $(DEPFLAGS) -Itools -c $< -o $@
 
-# Every tools/cmd_*.c registers itself with a line CLI_COMMAND("name", fn, "summary") (or the older HD_COMMAND).
+# Every tools/cmd_*.c registers itself with a line CLI_COMMAND("name", fn, "summary").
 $(BUILD)/commands.inc: $(TOOLSRC)
 	@mkdir -p $(dir $@)
-	cat /dev/null $(wildcard tools/cmd_*.c) | grep -E '^(CLI|HD)_COMMAND\(' > $@.tmp; cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
+	cat /dev/null $(wildcard tools/cmd_*.c) | grep -E '^CLI_COMMAND\(' > $@.tmp; cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 
 $(BUILD)/hdnet: $(TOOLOBJ) $(BUILD)/libhdnet.a
 	$(CC) -o $@ $(TOOLOBJ) $(BUILD)/libhdnet.a $(LDFLAGS) $(LDLIBS) $(MPI_LIBS) $(TOOLLIBS)

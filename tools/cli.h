@@ -119,31 +119,4 @@ void cli_progress_start(cli_progress *p, const char *label, long total);
 void cli_progress_update(cli_progress *p, long done, const char *extra);
 void cli_progress_finish(cli_progress *p, long done, const char *extra);
 
-/* The names before the cli_ prefix, kept for branches written against them; to be removed once
- * every branch has rebased (new code uses the cli_ / CLI_ names). */
-#define HD_COMMAND CLI_COMMAND
-#define hd_opt cli_opt
-#define hd_opt_floats cli_opt_floats
-#define hd_cmd_spec cli_cmd_spec
-#define hd_opts_parse cli_opts_parse
-#define hd_usage_error cli_usage_error
-#define hd_report cli_report
-#define hd_report_photo cli_report_photo
-#define hd_note_mask cli_note_mask
-#define HD_EXIT_OK CLI_EXIT_OK
-#define HD_EXIT_FAIL CLI_EXIT_FAIL
-#define HD_EXIT_USAGE CLI_EXIT_USAGE
-#define HD_OPT_FLAG CLI_OPT_FLAG
-#define HD_OPT_INT CLI_OPT_INT
-#define HD_OPT_FLOAT CLI_OPT_FLOAT
-#define HD_OPT_STRING CLI_OPT_STRING
-#define HD_OPT_FLOATS CLI_OPT_FLOATS
-#define HD_OPT_MODEL_ROW CLI_OPT_MODEL_ROW
-#define HD_OPT_FACE_MASK_ROW CLI_OPT_FACE_MASK_ROW
-#define HD_OPT_ALIGNED_ROW CLI_OPT_ALIGNED_ROW
-#define hd_progress cli_progress
-#define hd_progress_start cli_progress_start
-#define hd_progress_update cli_progress_update
-#define hd_progress_finish cli_progress_finish
-
 #endif /* CLI_H */

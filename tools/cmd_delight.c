@@ -35,7 +35,7 @@ int cmd_delight(int argc, char **argv)
          "folder: the output folder (OUT/NAME.delit.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         CLI_OPT_ALIGNED_ROW(aligned),
-        HD_OPT_CLIP_ROWS(clip),
+        CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),

@@ -104,7 +104,7 @@ int cmd_relight(int argc, char **argv)
         {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png",
          "also write a contact sheet: input | delit | relit ... (one input only)"},
         CLI_OPT_ALIGNED_ROW(aligned),
-        HD_OPT_CLIP_ROWS(clip),
+        CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),

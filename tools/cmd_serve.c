@@ -11,29 +11,29 @@
 #include "serve/serve.h"
 #endif
 
-HD_COMMAND("serve", cmd_serve, "serve a web page for relighting photos interactively (drag the light, render, download)")
+CLI_COMMAND("serve", cmd_serve, "serve a web page for relighting photos interactively (drag the light, render, download)")
 
 int cmd_serve(int argc, char **argv)
 {
     const char *host = "127.0.0.1", *model_path = NULL;
     int port = 8080, threads = 0, max_photos = 8, timeout_s = 30, max_connections = 64;
     float max_upload_mb = 25.0f, max_megapixels = 16.0f;
-    const hd_opt opts[] = {
-        {"port", 'p', HD_OPT_INT, &port, "PORT", "TCP port to listen on (default 8080; 0: any free port, printed)"},
-        {"host", 0, HD_OPT_STRING, &host, "ADDR",
+    const cli_opt opts[] = {
+        {"port", 'p', CLI_OPT_INT, &port, "PORT", "TCP port to listen on (default 8080; 0: any free port, printed)"},
+        {"host", 0, CLI_OPT_STRING, &host, "ADDR",
          "address to bind (default 127.0.0.1: this machine only; 0.0.0.0 opens it to the network)"},
-        HD_OPT_MODEL_ROW(model_path),
-        {"threads", 'j', HD_OPT_INT, &threads, "N", "threads of the model's computations (default: all cores)"},
-        {"max-upload", 0, HD_OPT_FLOAT, &max_upload_mb, "MB", "largest photo upload accepted, in MB (default 25)"},
-        {"max-pixels", 0, HD_OPT_FLOAT, &max_megapixels, "MP",
+        CLI_OPT_MODEL_ROW(model_path),
+        {"threads", 'j', CLI_OPT_INT, &threads, "N", "threads of the model's computations (default: all cores)"},
+        {"max-upload", 0, CLI_OPT_FLOAT, &max_upload_mb, "MB", "largest photo upload accepted, in MB (default 25)"},
+        {"max-pixels", 0, CLI_OPT_FLOAT, &max_megapixels, "MP",
          "largest photo accepted, in megapixels, checked before decoding (default 16)"},
-        {"max-photos", 0, HD_OPT_INT, &max_photos, "N",
+        {"max-photos", 0, CLI_OPT_INT, &max_photos, "N",
          "photos kept in memory; the least recently used is forgotten first (default 8)"},
-        {"timeout", 0, HD_OPT_INT, &timeout_s, "S", "close a connection idle for S seconds (default 30)"},
-        {"max-connections", 0, HD_OPT_INT, &max_connections, "N", "connections served at once (default 64)"},
+        {"timeout", 0, CLI_OPT_INT, &timeout_s, "S", "close a connection idle for S seconds (default 30)"},
+        {"max-connections", 0, CLI_OPT_INT, &max_connections, "N", "connections served at once (default 64)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
-    const hd_cmd_spec spec = {
+    const cli_cmd_spec spec = {
         "serve", "[--port 8080] [--host 127.0.0.1] [-m MODEL] [--threads N] [--max-photos N] ...",
         "Serves a page at http://HOST:PORT/ where a photo is dropped, its faces found and decomposed once,\n"
         "and the light is dragged on a sphere while the face relights live in the browser; \"render\"\n"
@@ -42,23 +42,23 @@ int cmd_serve(int argc, char **argv)
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
-    if (hd_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
+    if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     free(pos);
 #ifndef HD_HAVE_MHD
     (void)host;
     (void)model_path;
     fprintf(stderr, "hdnet serve: this hdnet was built without libmicrohttpd; install it (Debian: apt-get install "
                     "libmicrohttpd-dev, or `make deps`) and rebuild with `make`\n");
-    return HD_EXIT_FAIL;
+    return CLI_EXIT_FAIL;
 #else
-    if (port < 0 || port > 65535) return hd_usage_error(&spec, "--port wants 0..65535, got %d", port);
-    if (!(max_upload_mb > 0.0f && max_upload_mb <= 4096.0f)) return hd_usage_error(&spec, "--max-upload wants 0..4096 MB");
+    if (port < 0 || port > 65535) return cli_usage_error(&spec, "--port wants 0..65535, got %d", port);
+    if (!(max_upload_mb > 0.0f && max_upload_mb <= 4096.0f)) return cli_usage_error(&spec, "--max-upload wants 0..4096 MB");
     if (!(max_megapixels > 0.0f && max_megapixels <= 268.0f))
-        return hd_usage_error(&spec, "--max-pixels wants 0..268 megapixels (16384 x 16384)");
-    if (max_photos < 1 || max_photos > 1000) return hd_usage_error(&spec, "--max-photos wants 1..1000");
-    if (timeout_s < 1 || timeout_s > 3600) return hd_usage_error(&spec, "--timeout wants 1..3600 seconds");
-    if (max_connections < 1 || max_connections > 1000) return hd_usage_error(&spec, "--max-connections wants 1..1000");
-    if (threads < 0) return hd_usage_error(&spec, "--threads wants a count >= 0");
+        return cli_usage_error(&spec, "--max-pixels wants 0..268 megapixels (16384 x 16384)");
+    if (max_photos < 1 || max_photos > 1000) return cli_usage_error(&spec, "--max-photos wants 1..1000");
+    if (timeout_s < 1 || timeout_s > 3600) return cli_usage_error(&spec, "--timeout wants 1..3600 seconds");
+    if (max_connections < 1 || max_connections > 1000) return cli_usage_error(&spec, "--max-connections wants 1..1000");
+    if (threads < 0) return cli_usage_error(&spec, "--threads wants a count >= 0");
     if (threads) hd_set_threads(threads);
     hd_serve_options o = {
         .host = host,
@@ -80,7 +80,7 @@ int cmd_serve(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
     hd_server *server = NULL;
     int bound = 0;
-    if (hd_server_start(&o, &server, &bound) != HD_OK) return hd_report("serve");
+    if (hd_server_start(&o, &server, &bound) != HD_OK) return cli_report("serve");
     const int v6 = strchr(host, ':') != NULL;
     printf("hdnet serve: listening on http://%s%s%s:%d/ (photos in memory: at most %d, least recently used "
            "forgotten first; uploads up to %.0f MB and %.0f megapixels); Ctrl-C stops\n",
@@ -92,6 +92,6 @@ int cmd_serve(int argc, char **argv)
     fflush(stdout);
     hd_server_stop(server);
     printf("hdnet serve: stopped\n");
-    return HD_EXIT_OK;
+    return CLI_EXIT_OK;
 #endif
 }

@@ -41,7 +41,7 @@ int cmd_transfer(int argc, char **argv)
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
-        HD_OPT_CLIP_ROWS(clip),
+        CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),

@@ -11,8 +11,6 @@
 
 #undef CLI_COMMAND
 #define CLI_COMMAND(name, fn, summary) {name, fn, summary},
-#undef HD_COMMAND
-#define HD_COMMAND CLI_COMMAND
 
 static const cli_command commands[] = {
 #include "commands.inc"

@@ -18,23 +18,23 @@ int hd_cli_video(const char *cmd, const char *in, const char *out, const char *m
 {
     if (!(clip->fps >= 0.0f && clip->fps <= 1000.0f)) {
         fprintf(stderr, "hdnet %s: usage error: --fps must be in (0, 1000], got %g\n", cmd, (double)clip->fps);
-        return HD_EXIT_USAGE;
+        return CLI_EXIT_USAGE;
     }
     if ((hd_path_is_video(in) || hd_path_is_video(out)) && !hd_video_supported()) {
         fprintf(stderr, "hdnet %s: %s\n", cmd, HD_VIDEO_HOW_TO);
-        return HD_EXIT_FAIL;
+        return CLI_EXIT_FAIL;
     }
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
     hd_video_relighter *v = NULL;
     hd_image ref_image = {0};
     float ref_light[HD_SH_COEFFS];
-    int rc = HD_EXIT_FAIL, nfaces = 0;
+    int rc = CLI_EXIT_FAIL, nfaces = 0;
     hd_video_options opt;
     hd_video_options_default(&opt);
     opt.smooth = !clip->no_smooth;
     if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
-        rc = hd_report(cmd);
+        rc = cli_report(cmd);
         goto done;
     }
     if (ref) {
@@ -44,7 +44,7 @@ int hd_cli_video(const char *cmd, const char *in, const char *out, const char *m
             st = ref_photo ? hd_estimate_light_photo(model, aligner, &ref_image, ref_light, &nfaces)
                            : hd_estimate_light(model, &ref_image, ref_light);
         if (st != HD_OK) {
-            rc = ref_photo ? hd_report_photo(cmd, st, ref) : hd_report(cmd);
+            rc = ref_photo ? cli_report_photo(cmd, st, ref) : cli_report(cmd);
             goto done;
         }
         light = ref_light;
@@ -52,13 +52,13 @@ int hd_cli_video(const char *cmd, const char *in, const char *out, const char *m
     hd_video_report report;
     if (hd_video_relighter_new(model, aligner, light, brightness, &opt, &v) != HD_OK ||
         hd_video_relight_clip(v, in, out, clip->fps, &report) != HD_OK) {
-        rc = hd_report(cmd);
+        rc = cli_report(cmd);
         goto done;
     }
     printf("%s -> %s: %ld frames (%ld with a face), light change %.4f per frame%s, %.1f s (%.2f frames/s)\n", in, out,
            report.frames, report.frames_with_face, report.light_change, opt.smooth ? " (smoothed)" : "",
            report.seconds, report.seconds > 0 ? (double)report.frames / report.seconds : 0.0);
-    rc = HD_EXIT_OK;
+    rc = CLI_EXIT_OK;
 done:
     hd_video_relighter_free(v);
     hd_image_free(&ref_image);

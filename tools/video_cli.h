@@ -10,11 +10,11 @@ typedef struct hd_cli_clip {
     int no_smooth; /* --no-smooth */
 } hd_cli_clip;
 
-#define HD_OPT_CLIP_ROWS(c)                                                                                            \
-    {"fps", 0, HD_OPT_FLOAT, &(c).fps, "N",                                                                            \
+#define CLI_OPT_CLIP_ROWS(c)                                                                                            \
+    {"fps", 0, CLI_OPT_FLOAT, &(c).fps, "N",                                                                            \
      "IMG is a folder of frames (in name order) of a clip at N frames per second, smoothed as a video; -o names "      \
      "a video file or a folder of PNG frames"},                                                                        \
-    {"no-smooth", 0, HD_OPT_FLAG, &(c).no_smooth, NULL,                                                               \
+    {"no-smooth", 0, CLI_OPT_FLAG, &(c).no_smooth, NULL,                                                               \
      "with a clip: no smoothing of the estimated light, shading and normals across frames"}
 
 /* Whether the input is a clip: a video file (by extension), or a folder with --fps. */
