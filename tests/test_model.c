@@ -11,6 +11,7 @@
 #include "model/losses.h"
 #include "model/train.h"
 #include "model/checkpoint.h"
+#include "model/train_log.h"
 
 /* ---- a synthetic pair: one smooth albedo on a sphere-like face under two lights */
 
@@ -900,6 +901,46 @@ static void test_light_from_image(void)
     hd_trainer_free(&t);
 }
 
+/* ---- the loss plot: labelled axes and a legend, the curves inside the plot area */
+
+static int dark_in(const hd_image *img, int x0, int y0, int x1, int y1)
+{
+    size_t HW = (size_t)img->width * img->height;
+    int n = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            size_t p = (size_t)y * img->width + x;
+            n += img->data[p] < 0.5f && img->data[HW + p] < 0.5f && img->data[2 * HW + p] < 0.5f;
+        }
+    return n;
+}
+
+static void test_loss_plot(void)
+{
+    enum { ROWS = 40 };
+    hd_train_log h = {0};
+    h.n = h.cap = ROWS;
+    h.v = malloc(sizeof(float) * ROWS * HD_TRAIN_LOG_COLS);
+    for (int i = 0; i < ROWS; i++) /* every curve from 1 down to 0.001 */
+        for (int c = 0; c < HD_TRAIN_LOG_COLS; c++)
+            h.v[i * HD_TRAIN_LOG_COLS + c] = powf(10.0f, -3.0f * i / (ROWS - 1)) * (c == HD_LOSS_TERMS ? 3.0f : 1.0f);
+    CHECK(hd_train_log_plot(&h, "plot_test.png") == HD_OK);
+    hd_image img = {0};
+    CHECK(hd_image_read("plot_test.png", &img) == HD_OK);
+    CHECK(img.width == 900 && img.height == 460);
+    if (img.width == 900 && img.height == 460) {
+        CHECK(dark_in(&img, 0, 60, 60, 400) > 100);   /* the decades' labels left of the y axis */
+        CHECK(dark_in(&img, 64, 424, 900, 440) > 100); /* the iterations' labels under the x axis */
+        CHECK(dark_in(&img, 0, 446, 400, 460) > 100);  /* the axis titles */
+        CHECK(dark_in(&img, 0, 0, 900, 40) > 100);     /* the legend (black: total) */
+        /* the curves: the total (black) apart from the terms, which all fall from 1 to 0.001 */
+        CHECK(dark_in(&img, 70, 50, 880, 418) > 100);
+    }
+    hd_image_free(&img);
+    remove("plot_test.png");
+    free(h.v);
+}
+
 int main(void)
 {
     hd_set_threads(1); /* tiny shapes: threads only add overhead */
@@ -911,6 +952,7 @@ int main(void)
     test_albedo_supervised();
     test_shading_mean();
     test_light_from_image();
+    test_loss_plot();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);
     t0 = hd_seconds();

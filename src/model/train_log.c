@@ -94,19 +94,70 @@ static void plot_line(hd_image *img, int x0, int y0, int x1, int y1, const float
     }
 }
 
+/* A 3 x 5 pixel font (drawn at 2x) for the plot's labels: digits, a few signs, capitals. Each
+ * glyph is five rows of three bits, the left pixel in bit 2. */
+static const unsigned char *glyph(char ch)
+{
+    static const struct { char c; unsigned char rows[5]; } font[] = {
+        {'0', {7, 5, 5, 5, 7}}, {'1', {2, 6, 2, 2, 7}}, {'2', {7, 1, 7, 4, 7}}, {'3', {7, 1, 7, 1, 7}},
+        {'4', {5, 5, 7, 1, 1}}, {'5', {7, 4, 7, 1, 7}}, {'6', {7, 4, 7, 5, 7}}, {'7', {7, 1, 1, 1, 1}},
+        {'8', {7, 5, 7, 5, 7}}, {'9', {7, 5, 7, 1, 7}}, {'-', {0, 0, 7, 0, 0}}, {'.', {0, 0, 0, 0, 2}},
+        {'_', {0, 0, 0, 0, 7}}, {'(', {1, 2, 2, 2, 1}}, {')', {4, 2, 2, 2, 4}}, {'A', {2, 5, 7, 5, 5}},
+        {'B', {6, 5, 6, 5, 6}}, {'C', {7, 4, 4, 4, 7}}, {'D', {6, 5, 5, 5, 6}}, {'E', {7, 4, 6, 4, 7}},
+        {'G', {7, 4, 5, 5, 7}}, {'H', {5, 5, 7, 5, 5}}, {'I', {7, 2, 2, 2, 7}}, {'L', {4, 4, 4, 4, 7}},
+        {'M', {5, 7, 7, 5, 5}}, {'N', {6, 5, 5, 5, 5}}, {'O', {7, 5, 5, 5, 7}}, {'R', {6, 5, 6, 5, 5}},
+        {'S', {7, 4, 7, 1, 7}}, {'T', {7, 2, 2, 2, 2}}, {'V', {5, 5, 5, 5, 2}}, {'W', {5, 5, 7, 7, 5}},
+        {'X', {5, 5, 2, 5, 5}}, {'Y', {5, 5, 2, 2, 2}}, {':', {0, 2, 0, 2, 0}},
+        {'F', {7, 4, 6, 4, 4}}, {'K', {5, 5, 6, 5, 5}}, {'P', {6, 5, 6, 4, 4}}, {'U', {5, 5, 5, 5, 7}}};
+    if (ch >= 'a' && ch <= 'z') ch = (char)(ch - 'a' + 'A');
+    for (size_t i = 0; i < sizeof font / sizeof font[0]; i++)
+        if (font[i].c == ch) return font[i].rows;
+    return NULL; /* a space, or a character the font lacks: left blank */
+}
+
+enum { GLYPH_SCALE = 2, GLYPH_ADVANCE = 4 * GLYPH_SCALE };
+
+static void plot_text(hd_image *img, int x, int y, const char *text, const float rgb[3])
+{
+    size_t HW = (size_t)img->width * img->height;
+    for (; *text; text++, x += GLYPH_ADVANCE) {
+        const unsigned char *g = glyph(*text);
+        if (!g) continue;
+        for (int r = 0; r < 5 * GLYPH_SCALE; r++)
+            for (int c = 0; c < 3 * GLYPH_SCALE; c++) {
+                int px = x + c, py = y + r;
+                if (!(g[r / GLYPH_SCALE] >> (2 - c / GLYPH_SCALE) & 1)) continue;
+                if (px < 0 || px >= img->width || py < 0 || py >= img->height) continue;
+                for (int k = 0; k < 3; k++) img->data[k * HW + (size_t)py * img->width + px] = rgb[k];
+            }
+    }
+}
+
 /* The loss curves: log10 of the weighted total (black) and of each unweighted term (colours),
- * averaged over buckets of iterations, on a white 800 x 400 canvas with a grid per decade. */
+ * averaged over buckets of iterations, on a white 900 x 460 canvas with a grid per decade, the
+ * decades labelled on the y axis (1E-2 = 0.01), iterations on the x axis, and a legend on top. */
 hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
 {
     static const float colours[HD_TRAIN_LOG_COLS][3] = {
         {0.85f, 0.1f, 0.1f}, {0.1f, 0.6f, 0.1f}, {0.1f, 0.3f, 0.9f}, {0.9f, 0.6f, 0.0f}, {0.6f, 0.1f, 0.7f},
         {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.55f, 0.55f, 0.0f},
         {0.0f, 0.0f, 0.0f},  {0.7f, 0.4f, 0.2f}};
-    const int Wd = 800, Ht = 400, margin = 10;
+    const float ink[3] = {0.2f, 0.2f, 0.2f}, grid[3] = {0.85f, 0.85f, 0.85f};
+    /* the plot area [left, Wd - right] x [top, Ht - bottom] */
+    const int Wd = 900, Ht = 460, left = 64, right = 12, top = 48, bottom = 40;
+    const int pw = Wd - left - right, ph = Ht - top - bottom;
     hd_image img = {0};
     hd_status s = hd_image_alloc(&img, Wd, Ht, 3);
     if (s != HD_OK) return s;
     for (size_t i = 0; i < (size_t)3 * Wd * Ht; i++) img.data[i] = 1.0f;
+    /* legend: a swatch and the name of each curve, two rows */
+    for (int c = 0; c < HD_TRAIN_LOG_COLS; c++) {
+        const char *name = c < HD_LOSS_TERMS ? hd_loss_names[c] : c == HD_LOSS_TERMS ? "total" : "disc";
+        int x = 8 + (c % 6) * 148, y = 6 + (c / 6) * 18;
+        for (int d = 0; d < 3; d++) plot_line(&img, x, y + 4 + d, x + 16, y + 4 + d, colours[c]);
+        plot_text(&img, x + 22, y, name, colours[c]);
+    }
+    plot_text(&img, 4, Ht - 14, "Y: LOG10 OF THE LOSS    X: ITERATION", ink);
     double lo = 1e30, hi = -1e30;
     for (long i = 0; i < h->n * HD_TRAIN_LOG_COLS; i++) {
         float v = h->v[i];
@@ -116,17 +167,32 @@ hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
             hi = l > hi ? l : hi;
         }
     }
+    plot_line(&img, left, top, left, top + ph, ink);
+    plot_line(&img, left, top + ph, left + pw, top + ph, ink);
     if (h->n >= 1 && lo < hi + 1) {
         lo = floor(lo);
         hi = ceil(hi);
         if (hi <= lo) hi = lo + 1;
-        const float grid[3] = {0.85f, 0.85f, 0.85f};
+        char label[32];
         for (double d = lo; d <= hi; d += 1) {
-            int y = margin + (int)((hi - d) / (hi - lo) * (Ht - 2 * margin));
-            plot_line(&img, margin, y, Wd - margin, y, grid);
+            int y = top + (int)((hi - d) / (hi - lo) * ph);
+            plot_line(&img, left + 1, y, left + pw, y, grid);
+            snprintf(label, sizeof label, "1E%d", (int)d);
+            plot_text(&img, left - 6 - GLYPH_ADVANCE * (int)strlen(label), y - 5, label, ink);
         }
-        int cols = Wd - 2 * margin;
-        long bucket = h->n / cols + 1;
+        /* x: iterations 1 .. n (one row per iteration), five ticks */
+        for (int k = 0; k <= 4; k++) {
+            long it = 1 + (long)((double)(h->n - 1) * k / 4 + 0.5);
+            int x = left + (int)((double)(it - 1) / (h->n > 1 ? h->n - 1 : 1) * pw);
+            plot_line(&img, x, top + ph, x, top + ph + 4, ink);
+            snprintf(label, sizeof label, "%ld", it);
+            int w = GLYPH_ADVANCE * (int)strlen(label);
+            int tx = x - w / 2;
+            if (tx + w > Wd) tx = Wd - w;
+            plot_text(&img, tx, top + ph + 8, label, ink);
+            if (h->n == 1) break;
+        }
+        long bucket = h->n / pw + 1;
         for (int c = 0; c < HD_TRAIN_LOG_COLS; c++) {
             int px = -1, py = 0;
             for (long start = 0; start < h->n; start += bucket) {
@@ -140,8 +206,8 @@ hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
                     }
                 }
                 if (!cnt) continue;
-                int x = margin + (int)((double)start / (h->n > 1 ? h->n - 1 : 1) * cols);
-                int y = margin + (int)((hi - log10(sum / cnt)) / (hi - lo) * (Ht - 2 * margin));
+                int x = left + (int)((double)start / (h->n > 1 ? h->n - 1 : 1) * pw);
+                int y = top + (int)((hi - log10(sum / cnt)) / (hi - lo) * ph);
                 if (px >= 0) plot_line(&img, px, py, x, y, colours[c]);
                 else plot_line(&img, x, y, x, y, colours[c]);
                 px = x;

@@ -20,7 +20,8 @@ hd_status hd_train_log_open(hd_train_log *log, const char *csv_path, int resume,
 /* Appends the row of an iteration, `seconds` into the run. */
 hd_status hd_train_log_add(hd_train_log *log, long iteration, const hd_step_result *r, double seconds);
 /* The loss curves: log10 of the weighted total (black) and of each unweighted term (colours),
- * averaged over buckets of iterations, on a white 800 x 400 canvas with a grid per decade. */
+ * averaged over buckets of iterations, on a white 900 x 460 canvas with a grid per decade, both
+ * axes labelled and a legend. */
 hd_status hd_train_log_plot(const hd_train_log *log, const char *path);
 void hd_train_log_close(hd_train_log *log);
 
