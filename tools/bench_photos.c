@@ -1,6 +1,6 @@
 /* bench_photos.c: the photo throughput section of `hdnet bench`: photos per second end to end
  * through `hdnet relight`'s per-photo steps (PNG decode, face detection, landmarks and alignment,
- * the model, relighting, warp back and Poisson blend, PNG encode) on a 1024 x 1024 portrait (the
+ * the model and the ratio rule on the full-size photo, PNG encode) on a 1024 x 1024 portrait (the
  * bundled photo enlarged), with the shipped model at the bench's thread count; each step the
  * median of a->repeats photos after one warm-up. */
 #include <stdlib.h>
@@ -62,7 +62,7 @@ int bench_photos(const bench_args *a)
         if (r < 0) continue;
         t[0][r] = t1 - t0;             /* decode */
         t[1][r] = t2 - t1;             /* detect + landmarks + align */
-        t[2][r] = (t3 - t2) - (t2 - t1); /* the model, relighting, warp back, blend */
+        t[2][r] = (t3 - t2) - (t2 - t1); /* the model and the ratio rule on the photo */
         t[3][r] = t4 - t3;             /* encode */
         t[4][r] = (t1 - t0) + (t3 - t2) + (t4 - t3); /* one photo as `hdnet relight` does it */
     }
@@ -78,7 +78,7 @@ int bench_photos(const bench_args *a)
                      "%d threads, median of %d)\n", path, PORTRAIT_SIDE, PORTRAIT_SIDE, faces, a->threads, repeats);
         fprintf(out, "  %-44s %8.1f ms\n", "PNG decode", 1e3 * m[0]);
         fprintf(out, "  %-44s %8.1f ms\n", "detect, landmarks, align", 1e3 * m[1]);
-        fprintf(out, "  %-44s %8.1f ms\n", "model, relight, warp back, Poisson blend", 1e3 * m[2]);
+        fprintf(out, "  %-44s %8.1f ms\n", "model, relight (ratio rule on the photo)", 1e3 * m[2]);
         fprintf(out, "  %-44s %8.1f ms\n", "PNG encode", 1e3 * m[3]);
         fprintf(out, "  %-44s %8.1f ms  = %.2f photos/s\n", "per photo, end to end", 1e3 * m[4], 1.0 / m[4]);
     }
