@@ -16,6 +16,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "test.h"
+#include "source_dir.h"
 #include "core/core.h"
 #include "align/face_detect.h"
 #include "align/face_landmarks.h"
@@ -37,20 +38,9 @@ static const struct {
     {152, 224.0f, 178.5f}, /* chin */
 };
 
-static char source_dir[4200];
+static const char *source_dir; /* test_source_dir() */
 static hd_face_detector *detector; /* loaded once; the convenience calls (which load their model
                                     * each time) are exercised on the first photo only */
-
-/* The source tree, from the test binary's place (BUILD/tests/test_face_detect). */
-static void find_source_dir(void)
-{
-    char exe[4096];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) return;
-    exe[n] = '\0';
-    *strrchr(exe, '/') = '\0';
-    snprintf(source_dir, sizeof source_dir, "%s/../..", exe);
-}
 
 static double dist(const float *p, const float *q) { return hypot(p[0] - q[0], p[1] - q[1]); }
 
@@ -280,7 +270,7 @@ static void test_bad_arguments(const hd_image *photo, hd_face_mesh *mesh)
 
 int main(void)
 {
-    find_source_dir();
+    source_dir = test_source_dir();
     char path[4400];
     snprintf(path, sizeof path, "%s/models", source_dir);
     setenv("HDNET_DATA", path, 1);

@@ -13,6 +13,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "test.h"
+#include "source_dir.h"
 #include "core/core.h"
 #include "align/face_detect.h"
 
@@ -27,20 +28,10 @@ typedef struct truth {
     float cx, cy, width;
 } truth;
 
-static char source_dir[4200];
+static const char *source_dir; /* test_source_dir() */
 static face_src sources[NFACES_SRC];
 static int nsources;
 static hd_face_detector *detector;
-
-static void find_source_dir(void)
-{
-    char exe[4096];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) return;
-    exe[n] = '\0';
-    *strrchr(exe, '/') = '\0';
-    snprintf(source_dir, sizeof source_dir, "%s/../..", exe);
-}
 
 static int load_sources(void)
 {
@@ -286,7 +277,7 @@ static void test_group(int W, int H, int want, float lo, float hi, unsigned seed
 
 int main(void)
 {
-    find_source_dir();
+    source_dir = test_source_dir();
     char path[4400];
     snprintf(path, sizeof path, "%s/models", source_dir);
     setenv("HDNET_DATA", path, 1);

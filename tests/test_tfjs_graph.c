@@ -10,6 +10,7 @@
 #include <unistd.h>
 #include <cjson/cJSON.h>
 #include "test.h"
+#include "source_dir.h"
 #include "core/core.h"
 #include "graph/tfjs_graph.h"
 
@@ -555,13 +556,8 @@ static void test_broken(void)
 
 static char *models_dir(void)
 {
-    static char dir[4200];
-    char exe[4096];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) return NULL;
-    exe[n] = '\0';
-    *strrchr(exe, '/') = '\0';
-    snprintf(dir, sizeof dir, "%s/../../models", exe); /* build-dir/tests -> the source tree */
+    static char dir[4300];
+    snprintf(dir, sizeof dir, "%s/models", test_source_dir());
     return dir;
 }
 

@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include "test.h"
+#include "source_dir.h"
 #include "core/core.h"
 #include "video/video.h"
 #if HD_HAVE_FFMPEG
@@ -23,19 +24,9 @@
 #define NFRAMES 8
 #define MAXSHIFT 3
 
-static char source_dir[4200];
+static const char *source_dir; /* test_source_dir() */
 static hd_image frames[NFRAMES];
 static int shift[NFRAMES][2];
-
-static void find_source_dir(void)
-{
-    char exe[4096];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) return;
-    exe[n] = '\0';
-    *strrchr(exe, '/') = '\0';
-    snprintf(source_dir, sizeof source_dir, "%s/../..", exe);
-}
 
 /* Frame t shows photo point p - shift[t] at pixel p (edges replicated), plus noise; a still clip
  * (moving 0) has no shifts. */
@@ -354,7 +345,7 @@ static void same_as_photo(hd_model *model, hd_aligner *aligner, const hd_image *
 
 int main(void)
 {
-    find_source_dir();
+    source_dir = test_source_dir();
     char path[4400];
     snprintf(path, sizeof path, "%s/models", source_dir);
     setenv("HDNET_DATA", path, 1);
