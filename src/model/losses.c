@@ -243,29 +243,27 @@ double hd_loss_shading_mean(hd_losses *L, float scale)
     int B = net->B, HW = net->H * net->W, P = B / 2;
     double sum = 0;
     for (int p = 0; p < P; p++) {
-        double mean[2], ms[2], d[2];
+        double mean[2], ms[2], d[2], pull[2];
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
             mean[k] = mean_over_mask(net->shading + (size_t)b * HW, L->batch->mask + (size_t)b * HW, HW, &ms[k]);
+            d[k] = mean[k] - L->shading_mean;
+            pull[k] = wgt(L, b); /* the weight of the terms that d[k] enters */
         }
-        for (int k = 0; k < 2; k++) d[k] = mean[k] - L->shading_mean;
-        if (L->shading_mean_pair && ms[0] > 0 && ms[1] > 0) d[0] = d[1] = 0.5 * (mean[0] + mean[1]) - L->shading_mean;
+        if (L->shading_mean_pair && ms[0] > 0 && ms[1] > 0) {
+            /* one d for both images, so each image's pixels get half the pull of both terms */
+            d[0] = d[1] = 0.5 * (mean[0] + mean[1]) - L->shading_mean;
+            pull[0] = pull[1] = 0.5 * (wgt(L, 2 * p) + wgt(L, 2 * p + 1));
+        }
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
             if (ms[k] <= 0) continue;
             sum += wgt(L, b) * fabs(d[k]);
             if (scale == 0.0f) continue;
-            double sign = (double)((d[k] > 0) - (d[k] < 0));
+            float g = (float)(scale * pull[k] / P * (double)((d[k] > 0) - (d[k] < 0)) / ms[k]);
             float *dS = net->d_shading + (size_t)b * HW;
             const float *m = L->batch->mask + (size_t)b * HW;
-            if (L->shading_mean_pair && ms[0] > 0 && ms[1] > 0) {
-                /* d depends on both images: image b's pixels get the pull of both terms */
-                float g = (float)(scale * (wgt(L, 2 * p) + wgt(L, 2 * p + 1)) / P * sign * 0.5 / ms[k]);
-                for (int q = 0; q < HW; q++) dS[q] += g * m[q];
-            } else {
-                float g = (float)(scale * wgt(L, b) / P * sign / ms[k]);
-                for (int q = 0; q < HW; q++) dS[q] += g * m[q];
-            }
+            for (int q = 0; q < HW; q++) dS[q] += g * m[q];
         }
     }
     return sum / P;
