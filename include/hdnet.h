@@ -172,6 +172,24 @@ hd_status hd_normal_decode(const hd_image *rgb, hd_image *normal, hd_image *mask
 /* Encodes unit normals; pixels with mask <= 0.5 are written as 0 (mask may be NULL). */
 hd_status hd_normal_encode(const hd_image *normal, const hd_image *mask, hd_image *rgb);
 
+/* Contact sheets (src/io/sheet.c): a grid of square cells separated by plain borders, written as an
+ * 8-bit RGB PNG. Each picture is resized to the cell (area down, bilinear up). */
+typedef enum hd_sheet_kind {
+    HD_SHEET_PICTURE = 0, /* values as stored; 1 channel shown gray, 2 (gray + alpha) as gray */
+    HD_SHEET_NORMAL,      /* unit normals shown as (n + 1) / 2, zero vectors black */
+    HD_SHEET_SHADING      /* shading shown as s / 2 (1 channel) */
+} hd_sheet_kind;
+
+typedef struct hd_sheet {
+    int rows, columns, cell, border;
+    hd_image canvas; /* 3 channels, (columns * (cell + border) + border) wide */
+} hd_sheet;
+
+hd_status hd_sheet_init(hd_sheet *sheet, int rows, int columns, int cell, int border);
+hd_status hd_sheet_put(hd_sheet *sheet, int row, int column, const hd_image *picture, hd_sheet_kind kind);
+hd_status hd_sheet_write(const hd_sheet *sheet, const char *path);
+void hd_sheet_free(hd_sheet *sheet);
+
 /* ---------------------------------------------------------------- checkpoints (src/io) */
 
 #define HD_TENSOR_MAX_DIMS 8
@@ -436,26 +454,10 @@ typedef struct hd_photo_maps {
 hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_photo_maps *maps);
 void hd_photo_maps_free(hd_photo_maps *maps);
 
-/* Contact sheets: a grid of square cells separated by plain borders, written as an 8-bit RGB PNG.
- * Each picture is resized to the cell (area down, bilinear up). */
-typedef enum hd_sheet_kind {
-    HD_SHEET_PICTURE = 0, /* values as stored; 1 channel shown gray, 2 (gray + alpha) as gray */
-    HD_SHEET_NORMAL,      /* unit normals shown as (n + 1) / 2, zero vectors black */
-    HD_SHEET_SHADING      /* shading shown as s / 2 (1 channel) */
-} hd_sheet_kind;
-
-typedef struct hd_sheet {
-    int rows, columns, cell, border;
-    hd_image canvas; /* 3 channels, (columns * (cell + border) + border) wide */
-} hd_sheet;
-
-hd_status hd_sheet_init(hd_sheet *sheet, int rows, int columns, int cell, int border);
-hd_status hd_sheet_put(hd_sheet *sheet, int row, int column, const hd_image *picture, hd_sheet_kind kind);
-/* Fills columns 0..4 of row with input | albedo | shading | normal | reconstruction. */
+/* A decomposition on a contact sheet (hd_sheet, with the images above): fills columns 0..4 of row
+ * with input | albedo | shading | normal | reconstruction. */
 hd_status hd_sheet_put_decomposition(hd_sheet *sheet, int row, const hd_image *input,
                                      const hd_decomposition *d);
-hd_status hd_sheet_write(const hd_sheet *sheet, const char *path);
-void hd_sheet_free(hd_sheet *sheet);
 
 /* ---------------------------------------------------------------- synthetic faces (src/synth) */
 

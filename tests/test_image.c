@@ -2,7 +2,7 @@
  * the quantisation step); palette (with and without tRNS) and gray+alpha PNGs written here with
  * libpng directly; a JPEG written here with libjpeg; PFM bit-exact; channel conversion; resize
  * (constant stays constant, area down equals block means, bilinear up of a ramp is linear);
- * normal-map encode/decode; and errors on bad input. */
+ * normal-map encode/decode; contact sheets; and errors on bad input. */
 #include <math.h>
 #include <png.h>
 #include <stdio.h>
@@ -525,6 +525,49 @@ static void fuzz_file(const char *source, const char *path, hd_rng *rng, int fli
     free(data);
 }
 
+/* Contact sheets (io/sheet.c): the canvas size, each kind's display colours, the border, errors, the PNG. */
+static void test_sheet(void)
+{
+    hd_sheet sheet;
+    CHECK(hd_sheet_init(&sheet, 2, 3, 8, 2) == HD_OK);
+    CHECK(sheet.canvas.width == 3 * 10 + 2 && sheet.canvas.height == 2 * 10 + 2 && sheet.canvas.channels == 3);
+    hd_image gray = {0}, nrm = {0}, shade = {0};
+    CHECK(hd_image_alloc(&gray, 8, 8, 1) == HD_OK && hd_image_alloc(&nrm, 4, 4, 3) == HD_OK &&
+          hd_image_alloc(&shade, 16, 16, 1) == HD_OK);
+    for (int p = 0; p < 64; p++) gray.data[p] = 0.4f;
+    for (int p = 0; p < 16; p++) nrm.data[2 * 16 + p] = 1.0f; /* (0, 0, 1) */
+    nrm.data[0] = 1.0f, nrm.data[2 * 16] = 0.0f;              /* texel (0,0): (1, 0, 0) */
+    for (int p = 0; p < 256; p++) shade.data[p] = 1.0f;
+    CHECK(hd_sheet_put(&sheet, 0, 0, &gray, HD_SHEET_PICTURE) == HD_OK);
+    CHECK(hd_sheet_put(&sheet, 1, 2, &nrm, HD_SHEET_NORMAL) == HD_OK);
+    CHECK(hd_sheet_put(&sheet, 0, 1, &shade, HD_SHEET_SHADING) == HD_OK);
+    const int W = sheet.canvas.width, H = sheet.canvas.height;
+#define AT(c, x, y) sheet.canvas.data[((size_t)(c) * H + (y)) * W + (x)]
+    for (int c = 0; c < 3; c++) {
+        CHECK_NEAR(AT(c, 2 + 3, 2 + 3), 0.4f, 1e-6);          /* gray shown gray */
+        CHECK_NEAR(AT(c, 12 + 3, 2 + 3), 0.5f, 1e-6);         /* shading 1 shown as 0.5 */
+        CHECK_NEAR(AT(c, 0, 0), AT(c, 1, 21), 0);             /* border colour everywhere */
+        CHECK(AT(c, 1, 1) < 0.3f);
+    }
+    /* normal (0,0,1) -> (0.5, 0.5, 1) far from the odd texel */
+    CHECK_NEAR(AT(0, 22 + 7, 12 + 7), 0.5f, 1e-6);
+    CHECK_NEAR(AT(2, 22 + 7, 12 + 7), 1.0f, 1e-6);
+#undef AT
+    CHECK(hd_sheet_put(&sheet, 2, 0, &gray, HD_SHEET_PICTURE) == HD_ERR_ARG);
+    CHECK(hd_sheet_put(&sheet, 0, 0, &gray, HD_SHEET_NORMAL) == HD_ERR_ARG);
+    CHECK(hd_sheet_write(&sheet, "sheet.png") == HD_OK);
+    hd_image back = {0};
+    CHECK(hd_image_read("sheet.png", &back) == HD_OK);
+    CHECK(back.width == W && back.height == H && back.channels == 3);
+    if (back.data) CHECK_NEAR(back.data[(size_t)(2 + 3) * W + 2 + 3], 0.4f, 1.0 / 255);
+    hd_image_free(&back);
+    hd_sheet_free(&sheet);
+    CHECK(hd_sheet_init(&sheet, 0, 3, 8, 2) == HD_ERR_ARG);
+    hd_image_free(&gray);
+    hd_image_free(&nrm);
+    hd_image_free(&shade);
+}
+
 static void test_fuzz(void)
 {
     hd_rng rng;
@@ -550,6 +593,7 @@ int main(void)
     test_resize();
     test_normals();
     test_errors();
+    test_sheet();
     test_fuzz();
     return test_summary("test_image");
 }

@@ -1,6 +1,7 @@
-/* warp.h: internal to src/align: the similarity fit of the canonical mesh to the landmarks and
- * the photo-space raster of the landmark triangles (front-facing only, front-most by depth), which
- * both the unwarp (occlusion) and the warp back (texel lookup) stand on. */
+/* photo_raster.h: internal to src/align (and src/warp, which may use align): the similarity fit of
+ * the canonical mesh to the landmarks (align_face.c) and the photo-space raster of the landmark
+ * triangles (front-facing only, front-most by depth; photo_raster.c), which both the unwarp
+ * (occlusion) and the warp back (texel lookup) stand on. */
 #ifndef HD_ALIGN_WARP_H
 #define HD_ALIGN_WARP_H
 
@@ -38,13 +39,9 @@ void hd_photo_raster_free(hd_photo_raster *raster);
  * better; fills the fit fields of face (scale, rotation, translation, depth_sign, fit_rms). */
 hd_status hd_align_fit(const hd_mesh *mesh, hd_aligned_face *face);
 
-/* The public calls on a canonical mesh already loaded (the aligner's, hd_aligner_mesh). */
+/* hd_align_face on a canonical mesh already loaded (the aligner's, hd_aligner_mesh). */
 hd_status hd_align_face_on(const hd_mesh *canonical, const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3],
                            int size, hd_aligned_face *face);
-hd_status hd_warp_back_on(const hd_mesh *canonical, const hd_aligned_face *face, const hd_image *texture,
-                          const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
-hd_status hd_warp_back_blend_on(const hd_mesh *canonical, const hd_aligned_face *face, const hd_image *texture,
-                                hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
 /* The canonical mesh the aligner loaded at hd_aligner_load. */
 const hd_mesh *hd_aligner_mesh(const hd_aligner *aligner);
 

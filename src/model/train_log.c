@@ -1,6 +1,6 @@
 /* train_log.c: the training log (train_log.h): loss.csv (one row per iteration, kept up to the
  * checkpoint's iteration on resume), the history of every row, the loss curves as a PNG line plot,
- * and the sample sheet of the last forward (through the contact sheets of apply/sheet.c). */
+ * and the sample sheet of the last forward (on the contact sheets of io/sheet.c). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
