@@ -830,8 +830,10 @@ typedef enum hd_warp_mode {
  * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
 hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
                              double tolerance, hd_image *photo, hd_poisson_report *report);
-/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh on every call; an
- * aligner reads it once at hd_aligner_load (hd_aligner_run aligns on it) and these warp back on it. */
+/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
+ * their first call; each file found by the data search path is read once) and then share it,
+ * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
+ * (hd_aligner_run aligns on it) and these warp back on it. */
 hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
                                const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
 hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,

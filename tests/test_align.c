@@ -3,9 +3,11 @@
  * warp back returns a smooth photo inside the mask, coarse normals point where the face points,
  * hidden texels are masked, the warp file round-trips; Poisson blending reproduces a target from
  * a constant-offset source, reaches its tolerance by an independent residual check, and leaves
- * the target alone when the source is the target. */
+ * the target alone when the source is the target; the calls without an aligner read the canonical
+ * mesh once and share it. */
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include "test.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
@@ -452,12 +454,69 @@ static void test_poisson(void)
     hd_image_free(&mask);
 }
 
+/* The calls without an aligner share one canonical mesh per file, read once: hd_mesh_canonical
+ * gives the same mesh twice, equal to the one loaded here; a copy in a folder of its own (through
+ * HDNET_DATA) is a mesh of its own; and once it is read, spoiling that file changes nothing for
+ * hd_align_face and hd_warp_back (while the file itself no longer loads). */
+static void test_shared_mesh(void)
+{
+    const hd_mesh *a = NULL, *b = NULL, *c = NULL, *d = NULL;
+    CHECK(hd_mesh_canonical(&a) == HD_OK && hd_mesh_canonical(&b) == HD_OK && a && a == b);
+    if (!a) return;
+    CHECK(a->nv == canonical.nv && a->nt == canonical.nt &&
+          memcmp(a->pos, canonical.pos, (size_t)canonical.nv * 3 * sizeof(float)) == 0 &&
+          memcmp(a->uv, canonical.uv, (size_t)canonical.nv * 2 * sizeof(float)) == 0 &&
+          memcmp(a->tri, canonical.tri, (size_t)canonical.nt * 3 * sizeof(int)) == 0);
+    char *found = hd_find_data("canonical_face_model.obj"), *text = NULL, *old = NULL, dir[4200];
+    size_t n = 0;
+    CHECK(found && hd_read_file(found, 1 << 24, &text, &n) == HD_OK);
+    CHECK(hd_mkdirs("own_models") == HD_OK && getcwd(dir, 4096) != NULL);
+    FILE *f = fopen("own_models/canonical_face_model.obj", "wb");
+    CHECK(f && text && fwrite(text, 1, n, f) == n);
+    if (f) fclose(f);
+    if (getenv("HDNET_DATA")) old = strdup(getenv("HDNET_DATA"));
+    strcat(dir, "/own_models");
+    setenv("HDNET_DATA", dir, 1);
+    CHECK(hd_mesh_canonical(&c) == HD_OK && c && c != a && c->nv == a->nv);
+    float (*L)[3] = malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
+    double R[9];
+    hd_image photo = {0}, w1 = {0}, c1 = {0}, w2 = {0}, c2 = {0};
+    smooth_photo(&photo, 160, 150);
+    project(10, 0, 0, 6, 80, 75, L, R);
+    hd_aligned_face face, again;
+    CHECK(hd_align_face(&photo, (const float (*)[3])L, 64, &face) == HD_OK);
+    CHECK(hd_warp_back(&face, &face.texture, NULL, &w1, &c1) == HD_OK);
+    f = fopen("own_models/canonical_face_model.obj", "wb"); /* spoiled: one vertex of two numbers */
+    if (f) fputs("v 1 2\n", f), fclose(f);
+    hd_mesh spoiled;
+    CHECK(hd_mesh_load_canonical(&spoiled) == HD_ERR_FORMAT);
+    CHECK(hd_mesh_canonical(&d) == HD_OK && d == c);
+    CHECK(hd_align_face(&photo, (const float (*)[3])L, 64, &again) == HD_OK);
+    CHECK(again.texture.data && memcmp(again.texture.data, face.texture.data, (size_t)64 * 64 * 3 * sizeof(float)) == 0);
+    CHECK(hd_warp_back(&face, &face.texture, NULL, &w2, &c2) == HD_OK);
+    CHECK(w1.data && w2.data && memcmp(w1.data, w2.data, (size_t)160 * 150 * 3 * sizeof(float)) == 0);
+    if (old) setenv("HDNET_DATA", old, 1);
+    else unsetenv("HDNET_DATA");
+    free(old);
+    free(found);
+    free(text);
+    free(L);
+    hd_aligned_face_free(&face);
+    hd_aligned_face_free(&again);
+    hd_image_free(&photo);
+    hd_image_free(&w1);
+    hd_image_free(&c1);
+    hd_image_free(&w2);
+    hd_image_free(&c2);
+}
+
 int main(void)
 {
     if (!test_load_canonical(&canonical)) return 1;
     test_fit();
     test_round_trip_and_normals();
     test_change_mode();
+    test_shared_mesh();
     test_poisson();
     hd_mesh_free(&canonical);
     return test_summary("align");

@@ -287,10 +287,7 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
                         hd_aligned_face *face)
 {
     memset(face, 0, sizeof *face);
-    hd_mesh mesh;
-    hd_status st = hd_mesh_load_canonical(&mesh);
-    if (st) return st;
-    st = hd_align_face_on(&mesh, photo, landmarks, size, face);
-    hd_mesh_free(&mesh);
-    return st;
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
+    return st ? st : hd_align_face_on(mesh, photo, landmarks, size, face);
 }

@@ -1,6 +1,7 @@
 /* mesh.c: the canonical face mesh: a strict OBJ reader (v, vt, triangular f with vertex i using
- * vt i), the rasterisation of the mesh's UV layout into a texel grid (which triangle covers each
- * texel centre, with what barycentric weights), and area-weighted vertex normals.
+ * vt i), the shipped mesh loaded once per process and shared (hd_mesh_canonical), the
+ * rasterisation of the mesh's UV layout into a texel grid (which triangle covers each texel
+ * centre, with what barycentric weights), and area-weighted vertex normals.
  *
  * The rasteriser works in exact integer arithmetic (UVs snapped to 1/4096 of a texel), so the
  * edge functions of two triangles that share an edge are exact negatives of each other, and the
@@ -8,6 +9,7 @@
  * no holes, no double cover, and the same answer on every machine. */
 #include <errno.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
@@ -202,6 +204,52 @@ hd_status hd_mesh_load_canonical(hd_mesh *mesh)
     if (!path) return HD_ERR_NOTFOUND;
     hd_status st = hd_mesh_load_obj(path, mesh);
     free(path);
+    return st;
+}
+
+/* The shared canonical meshes: one per file (by its real path), appended under the lock, never
+ * changed or freed once there (so a pointer handed out stays valid and needs no lock to read). */
+typedef struct shared_mesh {
+    struct shared_mesh *next;
+    char *path;
+    hd_mesh mesh;
+} shared_mesh;
+static pthread_mutex_t shared_lock = PTHREAD_MUTEX_INITIALIZER;
+static shared_mesh *shared_meshes;
+
+hd_status hd_mesh_canonical(const hd_mesh **mesh)
+{
+    *mesh = NULL;
+    char *found = hd_find_data("canonical_face_model.obj");
+    if (!found) return HD_ERR_NOTFOUND;
+    char *path = realpath(found, NULL);
+    if (!path) {
+        hd_status st = hd_fail(HD_ERR_IO, "%s: cannot resolve: %s", found, strerror(errno));
+        free(found);
+        return st;
+    }
+    free(found);
+    hd_status st = HD_OK;
+    pthread_mutex_lock(&shared_lock);
+    shared_mesh *s = shared_meshes;
+    while (s && strcmp(s->path, path) != 0) s = s->next;
+    if (!s) {
+        s = hd_calloc(1, sizeof *s);
+        if (!s)
+            st = hd_fail(HD_ERR_NOMEM, "%s: out of memory loading the canonical mesh", path);
+        else if ((st = hd_mesh_load_obj(path, &s->mesh)) != HD_OK) {
+            free(s);
+            s = NULL;
+        } else {
+            s->path = path;
+            path = NULL;
+            s->next = shared_meshes;
+            shared_meshes = s;
+        }
+    }
+    pthread_mutex_unlock(&shared_lock);
+    free(path);
+    if (s) *mesh = &s->mesh;
     return st;
 }
 

@@ -17,6 +17,10 @@ typedef struct hd_mesh {
 hd_status hd_mesh_load_obj(const char *path, hd_mesh *mesh);
 /* Loads the canonical mesh shipped with hdnet (found with hd_find_data). */
 hd_status hd_mesh_load_canonical(hd_mesh *mesh);
+/* The canonical mesh shipped with hdnet, loaded once per process for each file hd_find_data finds
+ * (by its real path; a file changed after its first load is not read again) and shared: read-only,
+ * never freed, safe to use from any thread. What the calls without an aligner stand on. */
+hd_status hd_mesh_canonical(const hd_mesh **mesh);
 void hd_mesh_free(hd_mesh *mesh);
 
 /* For each texel centre ((x + 0.5) / size, (y + 0.5) / size) of a size x size UV map: the index

@@ -214,31 +214,25 @@ static hd_status warp_back_blend_on(const hd_mesh *mesh, const hd_aligned_face *
     return st;
 }
 
-/* ---------------------------------------------------------------- the canonical mesh: the aligner's, or loaded per call */
+/* ---------------------------------------------------------------- the canonical mesh: the aligner's, or the shared one (hd_mesh_canonical) */
 
 hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
                        hd_image *warped, hd_image *coverage)
 {
     memset(warped, 0, sizeof *warped);
     memset(coverage, 0, sizeof *coverage);
-    hd_mesh mesh;
-    hd_status st = hd_mesh_load_canonical(&mesh);
-    if (st) return st;
-    st = warp_back_on(&mesh, face, texture, tex_mask, warped, coverage);
-    hd_mesh_free(&mesh);
-    return st;
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
+    return st ? st : warp_back_on(mesh, face, texture, tex_mask, warped, coverage);
 }
 
 hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode, double tolerance,
                              hd_image *photo, hd_poisson_report *report)
 {
     if (report) memset(report, 0, sizeof *report);
-    hd_mesh mesh;
-    hd_status st = hd_mesh_load_canonical(&mesh);
-    if (st) return st;
-    st = warp_back_blend_on(&mesh, face, texture, mode, tolerance, photo, report);
-    hd_mesh_free(&mesh);
-    return st;
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
+    return st ? st : warp_back_blend_on(mesh, face, texture, mode, tolerance, photo, report);
 }
 
 hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
