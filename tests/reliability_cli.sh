@@ -148,16 +148,20 @@ expect 2 $H --max-pixels
 mkdir -p stale
 # a PID that is not running: the largest possible one is never handed out here
 dead=$(cat /proc/sys/kernel/pid_max)
-: >"stale/0000.albedo.png.tmp.$dead.0123456789abcdef"
-: >"stale/0000.albedo.png.tmp.$$.0123456789abcdef"        # a live process's: kept
-: >"stale/notes.tmp.txt"                                    # not ours: kept
+# temporaries carry the host's name (every byte but A-Za-z0-9- as _, at most 64)
+host=$(printf %s "$(uname -n)" | tr -c 'A-Za-z0-9-' _ | cut -c1-64)
+: >"stale/0000.albedo.png.tmp.$host.$dead.0123456789abcdef"
+: >"stale/0000.albedo.png.tmp.$host.$$.0123456789abcdef"        # a live process's: kept
+: >"stale/0000.normal.png.tmp.other-$host.$dead.0123456789abcdef" # another host's: kept
+: >"stale/notes.tmp.txt"                                          # not ours: kept
 expect 0 $H decompose "$S.png" --aligned -m model.safetensors -o stale
-no_file "stale/0000.albedo.png.tmp.$dead.0123456789abcdef"
-[ -f "stale/0000.albedo.png.tmp.$$.0123456789abcdef" ] && [ -f stale/notes.tmp.txt ] ||
-    fail "decompose removed a file that is not a dead process's temporary"
+no_file "stale/0000.albedo.png.tmp.$host.$dead.0123456789abcdef"
+[ -f "stale/0000.albedo.png.tmp.$host.$$.0123456789abcdef" ] && [ -f stale/notes.tmp.txt ] &&
+    [ -f "stale/0000.normal.png.tmp.other-$host.$dead.0123456789abcdef" ] ||
+    fail "decompose removed a file that is not a dead process's temporary of this host"
 expect 0 $H train data -o srun --size 32 --width 4 --batch 1 --threads 1 -q --iters 1 --every 1
-: >"srun/checkpoint.safetensors.tmp.$dead.fedcba9876543210"
-: >"srun/samples/iter_0000001.png.tmp.$dead.fedcba9876543210"
+: >"srun/checkpoint.safetensors.tmp.$host.$dead.fedcba9876543210"
+: >"srun/samples/iter_0000001.png.tmp.$host.$dead.fedcba9876543210"
 expect 0 $H train data -o srun --threads 1 -q --iters 2 --every 1 --resume
 no_temporaries srun
 

@@ -114,9 +114,20 @@ static void test_atomic_safety(void)
     char old[64];
     snprintf(old, sizeof old, "safe/out.tmp.%ld", (long)getpid());
     CHECK(symlink("target", old) == 0);
+    /* this host's tag: gethostname's bytes, each but [A-Za-z0-9-] as '_', at most 64 */
+    char host[HD_HOST_TAG_SIZE], raw[256] = "", want[400];
+    hd_host_tag(host);
+    CHECK(gethostname(raw, sizeof raw - 1) == 0 && raw[0]);
+    CHECK(strlen(host) == (strlen(raw) < 64 ? strlen(raw) : 64));
+    for (size_t i = 0; host[i]; i++) {
+        char c = raw[i];
+        int plain = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-';
+        CHECK(host[i] == (plain ? c : '_'));
+    }
+    snprintf(want, sizeof want, "safe/out.tmp.%s.%ld.", host, (long)getpid());
     mode_t mask = umask(022);
     CHECK(hd_atomic_open(&af, "safe/out") == HD_OK);
-    CHECK(strncmp(af.tmp_path, old, strlen(old)) == 0 && strlen(af.tmp_path) == strlen(old) + 17);
+    CHECK(strncmp(af.tmp_path, want, strlen(want)) == 0 && strlen(af.tmp_path) == strlen(want) + 16);
     struct stat sb;
     CHECK(stat(af.tmp_path, &sb) == 0 && (sb.st_mode & 0777) == 0644);
     fputs("new", af.f);
@@ -146,16 +157,27 @@ static void test_atomic_safety(void)
     CHECK(hd_atomic_set_end(1) == HD_OK);
     CHECK(exists("safe/set1") && exists("safe/set2") && count_prefixed("safe", "set") == 2);
 
-    /* stale temporaries: a dead process's go, a live one's and other files stay */
+    /* stale temporaries: a dead process's of this host go; a live one's, another host's (MPI ranks
+     * on several hosts share an output folder: a PID there says nothing here), one without a host
+     * (the older form) and other files stay */
     CHECK(hd_mkdirs("stale") == HD_OK);
-    const char *names[] = {"stale/a.png.tmp.999999999.0123456789abcdef", "stale/b.png.tmp.1.0123456789abcdef",
-                           "stale/c.tmp.999999999.short", "stale/d.tmp.txt"};
-    for (int i = 0; i < 4; i++) {
+    char names[8][400];
+    const char *forms[8] = {"stale/a.png.tmp.%s.999999999.0123456789abcdef", /* this host, dead: goes */
+                            "stale/b.png.tmp.%s.1.0123456789abcdef",         /* this host, alive */
+                            "stale/c.tmp.%s.999999999.short",                /* not ours */
+                            "stale/d.tmp.txt",
+                            "stale/e.png.tmp.%sx.999999999.0123456789abcdef",  /* another host */
+                            "stale/f.png.tmp.node-%s.999999999.0123456789abcdef", /* another, ending like ours */
+                            "stale/g.png.tmp.999999999.0123456789abcdef",    /* no host */
+                            "stale/h.png.tmp.%s.99x9.0123456789abcdef"};     /* not ours */
+    for (int i = 0; i < 8; i++) {
+        snprintf(names[i], sizeof names[i], forms[i], host);
         f = fopen(names[i], "w");
         if (f) fclose(f);
     }
     CHECK(hd_remove_stale_temporaries("stale") == 1);
-    CHECK(!exists(names[0]) && exists(names[1]) && exists(names[2]) && exists(names[3]));
+    CHECK(!exists(names[0]));
+    for (int i = 1; i < 8; i++) CHECK(exists(names[i]));
 
     /* the folder lock: a second holder (another open file description) is refused */
     int l1 = -1, l2 = -1;

@@ -1,11 +1,13 @@
 /* atomic.c: atomic output files that cannot be hijacked, output sets, stale temporaries.
  *
- * An output PATH is written to a temporary "PATH.tmp.PID.RANDOM" in the same folder, created with
+ * An output PATH is written to a temporary "PATH.tmp.HOST.PID.RANDOM" in the same folder, created with
  * open(O_CREAT | O_EXCL | O_NOFOLLOW) and mode 0644 under the umask (so a file or symlink planted
  * at that name is never opened, and the random part makes it unguessable), flushed, fsynced
  * (unless durable writes are off) and renamed over PATH. A symlink at PATH itself is refused:
  * hdnet never writes through one (rename() would replace the link, not follow it, so even a link
- * planted between the check and the rename leaves its target untouched).
+ * planted between the check and the rename leaves its target untouched). HOST is this machine's
+ * name (hd_host_tag), so that processes on several hosts writing into one shared folder (MPI
+ * ranks) each judge only their own host's temporaries stale.
  *
  * The FILE is a stdio cookie stream over the descriptor that remembers the first write error's
  * errno, so that a full disk is reported as "No space left on device" and not as a bare failure.
@@ -90,6 +92,20 @@ static uint64_t random_word(void)
     return v;
 }
 
+void hd_host_tag(char tag[HD_HOST_TAG_SIZE])
+{
+    char name[256] = "";
+    if (gethostname(name, sizeof name) != 0 || !name[0]) snprintf(name, sizeof name, "localhost");
+    name[sizeof name - 1] = '\0';
+    size_t i = 0;
+    for (; name[i] && i + 1 < HD_HOST_TAG_SIZE; i++) {
+        char c = name[i];
+        int plain = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-';
+        tag[i] = plain ? c : '_';
+    }
+    tag[i] = '\0';
+}
+
 hd_status hd_check_not_symlink(const char *path)
 {
     struct stat sb;
@@ -104,7 +120,9 @@ hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
     memset(af, 0, sizeof *af);
     hd_status st = hd_check_not_symlink(path);
     if (st != HD_OK) return st;
-    size_t n = strlen(path) + 64;
+    char host[HD_HOST_TAG_SIZE];
+    hd_host_tag(host);
+    size_t n = strlen(path) + HD_HOST_TAG_SIZE + 64;
     af->path = hd_strdup(path);
     af->tmp_path = hd_malloc(n);
     atomic_sink *sink = hd_malloc(sizeof *sink);
@@ -117,7 +135,7 @@ hd_status hd_atomic_open(hd_atomic_file *af, const char *path)
     }
     int fd = -1, err = 0;
     for (int attempt = 0; attempt < 64 && fd < 0; attempt++) {
-        snprintf(af->tmp_path, n, "%s" HD_TMP_INFIX "%ld.%016llx", path, (long)getpid(),
+        snprintf(af->tmp_path, n, "%s" HD_TMP_INFIX "%s.%ld.%016llx", path, host, (long)getpid(),
                  (unsigned long long)random_word());
         fd = open(af->tmp_path, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
         err = errno;
@@ -292,31 +310,35 @@ FILE *hd_open_append(const char *path)
     return f;
 }
 
-/* ---- stale temporaries: "NAME.tmp.PID.HEX16" whose PID is not a live process */
+/* ---- stale temporaries: "NAME.tmp.HOST.PID.HEX16" of this host whose PID is not a live process */
 
-/* The PID of a temporary's name, or 0 when the name is not one of ours. */
-static long temporary_pid(const char *name)
+/* The PID of a temporary's name when it is one of ours made on this host (HOST equal to `host`),
+ * else 0: another host's PID says nothing about the processes here, and a name without a host
+ * (earlier hdnet wrote "NAME.tmp.PID.HEX16") cannot say where it was made. */
+static long temporary_pid(const char *name, const char *host)
 {
-    const char *infix = strstr(name, HD_TMP_INFIX);
-    if (!infix) return 0;
-    for (const char *next; (next = strstr(infix + 1, HD_TMP_INFIX)) != NULL;) infix = next;
-    const char *p = infix + strlen(HD_TMP_INFIX);
-    char *end = NULL;
-    long pid = strtol(p, &end, 10);
-    if (end == p || pid <= 0 || *end != '.') return 0;
-    p = end + 1;
-    size_t hex = strspn(p, "0123456789abcdef");
-    return hex == 16 && p[16] == '\0' ? pid : 0;
+    /* read from the end: ".HEX16", ".PID", then ".tmp.HOST" must end what is left */
+    size_t len = strlen(name), hn = strlen(host), infix = strlen(HD_TMP_INFIX);
+    if (len < 17 || name[len - 17] != '.' || strspn(name + len - 16, "0123456789abcdef") != 16) return 0;
+    size_t dot = len - 17, start = dot;
+    while (start > 0 && name[start - 1] >= '0' && name[start - 1] <= '9') start--;
+    if (start == dot || dot - start > 10 || start < infix + hn + 1 || name[start - 1] != '.') return 0;
+    const char *tail = name + start - 1 - hn - infix; /* ".tmp.HOST" */
+    if (memcmp(tail, HD_TMP_INFIX, infix) != 0 || memcmp(tail + infix, host, hn) != 0) return 0;
+    long pid = strtol(name + start, NULL, 10);
+    return pid > 0 ? pid : 0;
 }
 
 int hd_remove_stale_temporaries(const char *dir)
 {
     DIR *d = opendir(dir);
     if (!d) return 0;
+    char host[HD_HOST_TAG_SIZE];
+    hd_host_tag(host);
     int removed = 0;
     struct dirent *e;
     while ((e = readdir(d)) != NULL) {
-        long pid = temporary_pid(e->d_name);
+        long pid = temporary_pid(e->d_name, host);
         if (pid <= 0 || pid == (long)getpid()) continue;
         if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue; /* alive (or not ours to judge) */
         if (unlinkat(dirfd(d), e->d_name, 0) == 0) removed++;

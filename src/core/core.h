@@ -54,10 +54,14 @@ float hd_rng_normal(hd_rng *r);
 /* Uniform integer in [0, n). */
 uint32_t hd_rng_below(hd_rng *r, uint32_t n);
 
-/* ---- atomic files (atomic.c): write to "<path>.tmp.<pid>.<16 random hex digits>" in the same
- * folder, created O_CREAT|O_EXCL|O_NOFOLLOW with mode 0644 under the umask; fsync; rename over
- * path. A symlink at path is refused (never written through). */
+/* ---- atomic files (atomic.c): write to "<path>.tmp.<host>.<pid>.<16 random hex digits>" in the
+ * same folder, created O_CREAT|O_EXCL|O_NOFOLLOW with mode 0644 under the umask; fsync; rename
+ * over path. A symlink at path is refused (never written through). */
 #define HD_TMP_INFIX ".tmp."
+/* This machine's name as temporaries carry it: gethostname() with every byte but [A-Za-z0-9-]
+ * made '_' (so it holds no '.'), cut to HD_HOST_TAG_SIZE - 1 bytes; "localhost" if there is none. */
+#define HD_HOST_TAG_SIZE 65
+void hd_host_tag(char tag[HD_HOST_TAG_SIZE]);
 typedef struct hd_atomic_file {
     FILE *f;
     char *path, *tmp_path;
@@ -95,7 +99,8 @@ hd_status hd_atomic_set_end(int commit);
 int hd_take_write_errno(void);
 int hd_write_errno_is_fatal(int err);
 void hd_note_write_errno(int err);
-/* Removes the temporaries in dir left by processes that no longer run; returns how many. */
+/* Removes the temporaries in dir left by processes of this host that no longer run (another host's
+ * and those without a host in the name are left alone); returns how many. */
 int hd_remove_stale_temporaries(const char *dir);
 /* Takes an exclusive flock on dir/.hdnet.lock (without waiting): a second writer gets a reason
  * saying another hdnet process holds the folder. The lock ends with the process or at unlock. */
