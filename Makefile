@@ -17,9 +17,10 @@ MAJOR   := $(firstword $(subst ., ,$(VERSION)))
 # The default goal (its recipe is below).
 all:
 
-# The Debian/Ubuntu packages the build needs (through sudo unless already root).
-DEPS := gcc make pkg-config libpng-dev libjpeg-dev zlib1g-dev libopenblas-dev libdnnl-dev libcjson-dev \
-        libavformat-dev libavcodec-dev libswscale-dev libavutil-dev libmicrohttpd-dev curl clang libclang-rt-dev libomp-dev
+# The Debian/Ubuntu packages the build needs (through sudo unless already root): the "deps" set of
+# debian-packages.txt, the one list .ci/run installs too.
+debian_packages = $(shell awk '!/^\#/ && $$2 == "$(1)" { print $$1 }' debian-packages.txt)
+DEPS := $(call debian_packages,deps)
 deps:
 	@if dpkg -s $(DEPS) >/dev/null 2>&1; then echo "deps: all installed"; else \
 	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
@@ -119,8 +120,15 @@ $(BUILD)/libhdnet.a: $(OBJ)
 	rm -f $@ && ar rcs $@ $^
 
 # The shared library: real name libhdnet.so.VERSION, soname libhdnet.so.MAJOR, and the two links.
-$(BUILD)/libhdnet.so.$(VERSION): $(OBJ)
-	$(CC) -shared -Wl,-soname,libhdnet.so.$(MAJOR) -o $@ $^ $(LDFLAGS) $(LDLIBS)
+# It exports exactly the functions include/hdnet.h declares: a linker version script made from the
+# preprocessed header lists them, every other symbol stays internal (tests/exports.sh). The static
+# library keeps everything (the tool, the tests and the benchmarks use the internal API).
+$(BUILD)/libhdnet.so.$(VERSION): $(OBJ) $(BUILD)/hdnet.map
+	$(CC) -shared -Wl,-soname,libhdnet.so.$(MAJOR) -Wl,--version-script=$(BUILD)/hdnet.map -o $@ $(OBJ) $(LDFLAGS) $(LDLIBS)
+$(BUILD)/hdnet.map: include/hdnet.h
+	@mkdir -p $(dir $@)
+	{ echo '{ global:'; $(CC) -E -P -Iinclude $< | tr '\n' ' ' | grep -o 'hd_[a-z0-9_]* *(' | tr -d ' (' | sort -u | \
+	    sed 's/.*/    &;/'; echo '  local: *; };'; } > $@.tmp && mv $@.tmp $@
 $(BUILD)/libhdnet.so: $(BUILD)/libhdnet.so.$(VERSION)
 	ln -sf libhdnet.so.$(VERSION) $(BUILD)/libhdnet.so.$(MAJOR) && ln -sf libhdnet.so.$(VERSION) $@
 
@@ -199,6 +207,9 @@ fuzz: hdnet
 print-ldlibs:
 	@echo $(LDFLAGS) $(LDLIBS)
 
+print-deps:
+	@echo $(DEPS) $(TEST_DEPS)
+
 # Data-parallel training on MPI against the single-process run (tests/mpi/train.sh), and the batch
 # commands' split of their inputs across ranks (tests/mpi/batch.sh); needs mpirun and Debian's
 # python3 with numpy. Slow on a busy machine: its own target, which CI calls.
@@ -231,8 +242,8 @@ test-browser: hdnet
 load-test: hdnet
 	HDNET=$(abspath $(BUILD)/hdnet) sh tests/load/serve_load.sh
 
-# What the browser and load tests need besides `make deps`.
-TEST_DEPS := chromium wrk
+# What the browser and load tests need besides `make deps` (debian-packages.txt's "test-deps").
+TEST_DEPS := $(call debian_packages,test-deps)
 test-deps:
 	@if dpkg -s $(TEST_DEPS) >/dev/null 2>&1; then echo "test-deps: all installed"; else \
 	    SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
@@ -273,6 +284,6 @@ install: hdnet $(BUILD)/libhdnet.so $(BUILD)/hdnet.1 $(BUILD)/hdnet.bash
 	if [ -n "$(PYDIR)" ]; then install -d $(DESTDIR)$(PYDIR)/hdnet && \
 	    install -m 644 python/hdnet/__init__.py $(DESTDIR)$(PYDIR)/hdnet/__init__.py; fi
 
-.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE test-browser load-test test-deps fuzz print-ldlibs test-kill
+.PHONY: all hdnet tests test check test-mpi tsan bench demo install FORCE test-browser load-test test-deps fuzz print-ldlibs print-deps test-kill
 .SECONDARY:
 endif

@@ -23,6 +23,57 @@ major=${real#libhdnet.so.}; major=${major%%.*}
 [ "$(readlink "$prefix/lib/libhdnet.so.$major")" = "$real" ] || fail "libhdnet.so.$major does not point at $real"
 readelf -d "$prefix/lib/$real" | grep -q "SONAME.*\[libhdnet.so.$major\]" || fail "$real has no soname libhdnet.so.$major"
 
+# hdnet.pc's libraries are what libhdnet links: every library the shared one needs (NEEDED) is a
+# -l of Libs.private, and every -l there comes from a package of debian-packages.txt's "deps" set
+# or one such a package depends on (libjpeg-dev: libjpeg62-turbo-dev), or from gcc's own
+# libc6-dev and libgcc-N-dev.
+pc=$prefix/lib/pkgconfig/hdnet.pc
+libs=$(sed -n 's/^Libs.private: *//p' "$pc")
+[ -n "$libs" ] || fail "$pc has no Libs.private"
+if command -v dpkg-query >/dev/null; then
+    listed=$(awk '!/^#/ && $2 == "deps" { print $1 }' "$root/debian-packages.txt")
+    # shellcheck disable=SC2086
+    allowed=" $(echo $listed) $(dpkg-query -W -f='${Depends}, ' $listed 2>/dev/null | tr ',|' '\n\n' |
+        sed -e 's/(.*)//' -e 's/:any//' -e 's/ //g' | sort -u | tr '\n' ' ') "
+fi
+sonames=
+for flag in $libs; do
+    case $flag in -l*) ;; *) continue ;; esac
+    file=$(${CC:-cc} -print-file-name="lib${flag#-l}.so")
+    [ -e "$file" ] || file=$(${CC:-cc} -print-file-name="lib${flag#-l}.a") # glibc's -lpthread: an empty archive
+    [ -e "$file" ] || fail "$pc names $flag, which the compiler cannot find"
+    # the soname of a shared library, or of every library a linker script (glibc's libm.so) names
+    if readelf -h "$(readlink -f "$file")" >/dev/null 2>&1; then
+        sonames="$sonames $(readelf -d "$(readlink -f "$file")" 2>/dev/null | sed -n 's/.*SONAME.*\[\(.*\)\]/\1/p')"
+    else
+        sonames="$sonames $(grep -o '[^ (/]*\.so\.[0-9.]*' "$file" | tr '\n' ' ')"
+    fi
+    if command -v dpkg-query >/dev/null; then
+        # the package owning the file, or the one an alternatives link leads to (OpenBLAS)
+        owned=$file pkg= step=0
+        while [ -z "$pkg" ] && [ $step -lt 5 ]; do
+            owned=$(readlink -f "$(dirname "$owned")")/$(basename "$owned")
+            pkg=$(dpkg -S "$owned" 2>/dev/null | head -1 | cut -d: -f1)
+            [ -n "$pkg" ] || [ ! -L "$owned" ] && break
+            link=$(readlink "$owned")
+            case $link in /*) owned=$link ;; *) owned=$(dirname "$owned")/$link ;; esac
+            step=$((step + 1))
+        done
+        [ -n "$pkg" ] || fail "$pc names $flag: no Debian package owns $file or what it links to"
+        case $pkg in libc6-dev | libgcc-*-dev) ;; *)
+            case $allowed in *" $pkg "*) ;; *)
+                fail "$pc names $flag from $pkg, which neither debian-packages.txt's deps set nor their dependencies hold" ;;
+            esac ;;
+        esac
+    fi
+done
+for needed in $(readelf -d "$prefix/lib/$real" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p'); do
+    case $needed in libc.so.* | ld-linux* | libgcc_s.so.* | lib*san.so.*) continue ;; esac  # libc, gcc, sanitizers
+    case " $sonames " in *" $needed "*) ;; *) fail "$real needs $needed, which hdnet.pc's Libs.private ($libs) does not name" ;; esac
+done
+command -v dpkg-query >/dev/null && echo "install: hdnet.pc's libraries ($libs) cover what $real needs and come from debian-packages.txt" ||
+    echo "install: hdnet.pc's libraries cover what $real needs (SKIP their packages: no dpkg here)"
+
 mkdir -p app elsewhere
 cat >app/relight.c <<'APP'
 #include <stdio.h>
