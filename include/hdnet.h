@@ -171,6 +171,11 @@ void hd_buffer_free(void *data);
 hd_status hd_normal_decode(const hd_image *rgb, hd_image *normal, hd_image *mask);
 /* Encodes unit normals; pixels with mask <= 0.5 are written as 0 (mask may be NULL). */
 hd_status hd_normal_encode(const hd_image *normal, const hd_image *mask, hd_image *rgb);
+/* In place: each pixel's vector of a 3-channel normal map over its length (0 where it is shorter
+ * than 1e-6); nothing for another channel count. */
+void hd_normal_renormalise(hd_image *normal);
+/* A normal map resized (hd_image_resize) and renormalised: blends of unit vectors are shorter. */
+hd_status hd_normal_resize(const hd_image *normal, int width, int height, hd_image *out);
 
 /* Contact sheets (src/io/sheet.c): a grid of square cells separated by plain borders, written as an
  * 8-bit RGB PNG. Each picture is resized to the cell (area down, bilinear up). */

@@ -2,7 +2,7 @@
  * the quantisation step); palette (with and without tRNS) and gray+alpha PNGs written here with
  * libpng directly; a JPEG written here with libjpeg; PFM bit-exact; channel conversion; resize
  * (constant stays constant, area down equals block means, bilinear up of a ramp is linear);
- * normal-map encode/decode; contact sheets; and errors on bad input. */
+ * normal-map encode/decode and resize; contact sheets; and errors on bad input. */
 #include <math.h>
 #include <png.h>
 #include <stdio.h>
@@ -568,6 +568,45 @@ static void test_sheet(void)
     hd_image_free(&shade);
 }
 
+/* hd_normal_resize: every pixel of the result unit length (blends of unit vectors are shorter) in
+ * the direction of the plain resize, zero vectors stay zero; hd_normal_renormalise alone on
+ * vectors of length 2; a 1-channel map is refused. */
+static void test_normal_resize(void)
+{
+    hd_image n = {0}, r = {0}, plain = {0}, gray = {0};
+    CHECK(hd_image_alloc(&n, 4, 4, 3) == HD_OK);
+    for (int y = 0; y < 4; y++)
+        for (int x = 0; x < 4; x++) {
+            size_t p = (size_t)y * 4 + x;
+            if (y == 3) continue;                  /* row 3: no normal (0, 0, 0) */
+            n.data[(x < 2 ? 0 : 16) + p] = 1.0f;   /* left half (1, 0, 0), right half (0, 1, 0) */
+        }
+    CHECK(hd_normal_resize(&n, 9, 9, &r) == HD_OK && hd_image_resize(&n, 9, 9, &plain) == HD_OK);
+    int blended = 0;
+    for (size_t p = 0; r.data && p < 81; p++) {
+        double lp = sqrt(pow(plain.data[p], 2) + pow(plain.data[81 + p], 2) + pow(plain.data[162 + p], 2));
+        double lr = sqrt(pow(r.data[p], 2) + pow(r.data[81 + p], 2) + pow(r.data[162 + p], 2));
+        if (lp <= 1e-6) {
+            CHECK(lr == 0);
+            continue;
+        }
+        CHECK_NEAR(lr, 1.0, 1e-6);
+        for (int c = 0; c < 3; c++) CHECK_NEAR(r.data[c * 81 + p], plain.data[c * 81 + p] / lp, 1e-6);
+        blended += lp < 0.99;
+    }
+    CHECK(blended > 0); /* the resize did blend the two halves (and the empty row) */
+    for (size_t i = 0; i < 48; i++) n.data[i] = i < 16 ? 0.0f : i < 32 ? 0.0f : 2.0f; /* (0, 0, 2) */
+    hd_normal_renormalise(&n);
+    for (size_t p = 0; p < 16; p++) CHECK(n.data[p] == 0 && n.data[16 + p] == 0 && n.data[32 + p] == 1.0f);
+    CHECK(hd_image_alloc(&gray, 4, 4, 1) == HD_OK);
+    hd_image_free(&r);
+    CHECK(hd_normal_resize(&gray, 8, 8, &r) == HD_ERR_ARG && r.data == NULL);
+    hd_image_free(&n);
+    hd_image_free(&r);
+    hd_image_free(&plain);
+    hd_image_free(&gray);
+}
+
 static void test_fuzz(void)
 {
     hd_rng rng;
@@ -594,6 +633,7 @@ int main(void)
     test_normals();
     test_errors();
     test_sheet();
+    test_normal_resize();
     test_fuzz();
     return test_summary("test_image");
 }

@@ -26,7 +26,7 @@ int cmd_delight(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL;
     int aligned = 0, threads = 0, quiet = 0;
-    hd_cli_clip clip = {0};
+    cli_clip clip = {0};
     float min_score = cli_min_score_default();
     const cli_opt opts[] = {
         CLI_OPT_MODEL_ROW(model_path),
@@ -63,8 +63,8 @@ int cmd_delight(int argc, char **argv)
         free(pos);
         return code;
     }
-    if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        rc = hd_cli_video("delight", pos[0], out, model_path, NULL, NULL, HD_BRIGHTNESS_KEEP, &clip);
+    if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        rc = cli_video("delight", pos[0], out, model_path, NULL, NULL, HD_BRIGHTNESS_KEEP, &clip);
         free(pos);
         return rc;
     }

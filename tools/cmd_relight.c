@@ -76,7 +76,7 @@ int cmd_relight(int argc, char **argv)
     cli_opt_floats dir = {.max = 2}, colour = {.max = 3};
     float intensity = NAN, ambient = NAN, rotate = 0.0f, min_score = cli_min_score_default();
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
-    hd_cli_clip clip = {0};
+    cli_clip clip = {0};
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
              (double)HD_LIGHT_DEFAULT_INTENSITY);
@@ -209,10 +209,10 @@ int cmd_relight(int argc, char **argv)
                                 (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
                 goto done;
             }
-    if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+    if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
         if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
             cli_usage_error(&spec, "a clip takes one light, grey (no --preset all, no --sheet, no colour)");
-        else rc = hd_cli_video("relight", pos[0], out, model_path, lights[0].sh[0], NULL,
+        else rc = cli_video("relight", pos[0], out, model_path, lights[0].sh[0], NULL,
                                no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
         goto done;
     }

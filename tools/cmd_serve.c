@@ -60,7 +60,7 @@ int cmd_serve(int argc, char **argv)
     if (max_connections < 1 || max_connections > 1000) return cli_usage_error(&spec, "--max-connections wants 1..1000");
     if (threads < 0) return cli_usage_error(&spec, "--threads wants a count >= 0");
     if (threads) hd_set_threads(threads);
-    hd_serve_options o = {
+    serve_options o = {
         .host = host,
         .port = port,
         .model_path = model_path,
@@ -78,9 +78,9 @@ int cmd_serve(int argc, char **argv)
     sigaddset(&stop, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop, NULL);
     signal(SIGPIPE, SIG_IGN);
-    hd_server *server = NULL;
+    serve_server *server = NULL;
     int bound = 0;
-    if (hd_server_start(&o, &server, &bound) != HD_OK) return cli_report("serve");
+    if (serve_server_start(&o, &server, &bound) != HD_OK) return cli_report("serve");
     const int v6 = strchr(host, ':') != NULL;
     printf("hdnet serve: listening on http://%s%s%s:%d/ (photos in memory: at most %d, least recently used "
            "forgotten first; uploads up to %.0f MB and %.0f megapixels); Ctrl-C stops\n",
@@ -90,7 +90,7 @@ int cmd_serve(int argc, char **argv)
     sigwait(&stop, &sig);
     printf("hdnet serve: %s, stopping\n", sig == SIGINT ? "interrupted" : "terminated");
     fflush(stdout);
-    hd_server_stop(server);
+    serve_server_stop(server);
     printf("hdnet serve: stopped\n");
     return CLI_EXIT_OK;
 #endif

@@ -27,7 +27,7 @@ int cmd_transfer(int argc, char **argv)
 {
     const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
-    hd_cli_clip clip = {0};
+    cli_clip clip = {0};
     float min_score = cli_min_score_default();
     const cli_opt opts[] = {
         {"ref", 0, CLI_OPT_STRING, &ref_path, "REF", "the photo (its best face) or aligned face whose light is taken"},
@@ -66,8 +66,8 @@ int cmd_transfer(int argc, char **argv)
         free(pos);
         return code;
     }
-    if (npos == 1 && hd_cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        code = hd_cli_video("transfer", pos[0], out, model_path, NULL, ref_path,
+    if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        code = cli_video("transfer", pos[0], out, model_path, NULL, ref_path,
                             no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
         free(pos);
         return code;

@@ -3,18 +3,18 @@
 #include <stdio.h>
 #include <sys/stat.h>
 #include "cli.h"
-#include "video/video.h"
+#include "hdnet_tool.h"
 #include "video_cli.h"
 
-int hd_cli_is_clip(const char *input, const hd_cli_clip *clip)
+int cli_is_clip(const char *input, const cli_clip *clip)
 {
     struct stat sb;
     if (clip->fps != 0.0f && stat(input, &sb) == 0 && S_ISDIR(sb.st_mode)) return 1; /* a bad --fps is reported */
     return hd_path_is_video(input);
 }
 
-int hd_cli_video(const char *cmd, const char *in, const char *out, const char *model_path, const float *light,
-                 const char *ref, hd_brightness brightness, const hd_cli_clip *clip)
+int cli_video(const char *cmd, const char *in, const char *out, const char *model_path, const float *light,
+                 const char *ref, hd_brightness brightness, const cli_clip *clip)
 {
     if (!(clip->fps >= 0.0f && clip->fps <= 1000.0f)) {
         fprintf(stderr, "hdnet %s: usage error: --fps must be in (0, 1000], got %g\n", cmd, (double)clip->fps);

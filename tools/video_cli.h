@@ -5,10 +5,10 @@
 
 #include "hdnet.h"
 
-typedef struct hd_cli_clip {
+typedef struct cli_clip {
     float fps;     /* --fps: a folder input is a clip at this frame rate (0: not given) */
     int no_smooth; /* --no-smooth */
-} hd_cli_clip;
+} cli_clip;
 
 #define CLI_OPT_CLIP_ROWS(c)                                                                                            \
     {"fps", 0, CLI_OPT_FLOAT, &(c).fps, "N",                                                                            \
@@ -18,11 +18,11 @@ typedef struct hd_cli_clip {
      "with a clip: no smoothing of the estimated light, shading and normals across frames"}
 
 /* Whether the input is a clip: a video file (by extension), or a folder with --fps. */
-int hd_cli_is_clip(const char *input, const hd_cli_clip *clip);
+int cli_is_clip(const char *input, const cli_clip *clip);
 /* Relights the clip `in` into `out`: under `light`; or (light NULL) under the light estimated for
  * the reference `ref` (a photo's best face or an aligned texture); or (both NULL) delights. Prints
  * what it wrote; returns the exit code. */
-int hd_cli_video(const char *cmd, const char *in, const char *out, const char *model_path, const float *light,
-                 const char *ref, hd_brightness brightness, const hd_cli_clip *clip);
+int cli_video(const char *cmd, const char *in, const char *out, const char *model_path, const float *light,
+                 const char *ref, hd_brightness brightness, const cli_clip *clip);
 
 #endif /* HD_VIDEO_CLI_H */

@@ -1,5 +1,5 @@
 /* normal_map.c: normal maps in files (SPEC section 2): rgb = (n + 1) / 2 for unit camera-frame
- * normals, and 0 for masked-out pixels. */
+ * normals, and 0 for masked-out pixels; and normal maps resized or renormalised in memory. */
 #include <math.h>
 #include <string.h>
 #include "core/core.h"
@@ -55,4 +55,27 @@ hd_status hd_normal_encode(const hd_image *normal, const hd_image *mask, hd_imag
     }
     *rgb = out;
     return HD_OK;
+}
+
+/* Renormalising: n / |n| per pixel, 0 where |n| <= 1e-6 (no direction to keep). */
+void hd_normal_renormalise(hd_image *normal)
+{
+    if (!normal || !normal->data || normal->channels != 3) return;
+    const size_t np = (size_t)normal->width * normal->height;
+    float *x = normal->data, *y = x + np, *z = y + np;
+    for (size_t p = 0; p < np; p++) {
+        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
+        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
+        x[p] *= inv, y[p] *= inv, z[p] *= inv;
+    }
+}
+
+hd_status hd_normal_resize(const hd_image *normal, int width, int height, hd_image *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!normal || !normal->data || normal->channels != 3)
+        return hd_fail(HD_ERR_ARG, "normals need 3 channels, not %d", normal ? normal->channels : 0);
+    hd_status st = hd_image_resize(normal, width, height, out);
+    if (st == HD_OK) hd_normal_renormalise(out);
+    return st;
 }

@@ -141,12 +141,7 @@ static hd_status smooth_maps(hd_video_relighter *v, track *t, hd_decomposition *
     hd_ema_step(&t->light, d->light);
     hd_ema_step(&t->shading, d->shading.data);
     hd_ema_step(&t->normal, d->normal.data);
-    float *x = d->normal.data, *y = x + hw, *z = y + hw;
-    for (size_t p = 0; p < hw; p++) {
-        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
-        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
-        x[p] *= inv, y[p] *= inv, z[p] *= inv;
-    }
+    hd_normal_renormalise(&d->normal);
     return HD_OK;
 }
 

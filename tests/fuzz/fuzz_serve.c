@@ -18,13 +18,13 @@ static void check_light(const float light[HD_SH_COEFFS])
 
 static void upload(const unsigned char *d, size_t n)
 {
-    if (hd_picture_sniff(d, n) == HD_PICTURE_UNKNOWN) return;
+    if (serve_picture_sniff(d, n) == SERVE_PICTURE_UNKNOWN) return;
     long w = 0, h = 0;
-    if (hd_picture_probe(d, n, "upload", &w, &h) != HD_OK) return;
+    if (serve_picture_probe(d, n, "upload", &w, &h) != HD_OK) return;
     if (w <= 0 || h <= 0) abort();
     if ((double)w * (double)h > 1e6) return; /* the server refuses it here (in double), before decoding */
     hd_image rgb = {0};
-    if (hd_picture_decode(d, n, "upload", &rgb) == HD_OK) {
+    if (serve_picture_decode(d, n, "upload", &rgb) == HD_OK) {
         /* EXIF orientation may swap the sides, never change the count */
         if ((long)rgb.width * rgb.height != w * h || rgb.channels != 3) abort();
         hd_image_free(&rgb);
@@ -36,7 +36,7 @@ static void json_light(const unsigned char *d, size_t n)
     float light[HD_SH_COEFFS];
     hd_brightness b;
     char reason[256];
-    if (hd_light_from_json((const char *)d, n, light, &b, reason, sizeof reason) == HD_OK) check_light(light);
+    if (serve_light_from_json((const char *)d, n, light, &b, reason, sizeof reason) == HD_OK) check_light(light);
 }
 
 static void query_light(const unsigned char *d, size_t n)
@@ -58,7 +58,7 @@ static void query_light(const unsigned char *d, size_t n)
     }
     float light[HD_SH_COEFFS];
     char reason[256];
-    if (hd_light_from_query(v[0], v[1], v[2], v[3], v[4], light, reason, sizeof reason) == HD_OK) check_light(light);
+    if (serve_light_from_query(v[0], v[1], v[2], v[3], v[4], light, reason, sizeof reason) == HD_OK) check_light(light);
     free(text);
 }
 

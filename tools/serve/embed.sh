@@ -1,5 +1,5 @@
 #!/bin/sh
-# embed.sh OUT.c FILE...: compiles the page's files into C arrays (the hd_serve_assets table of
+# embed.sh OUT.c FILE...: compiles the page's files into C arrays (the serve_assets table of
 # serve.h), so `hdnet serve` carries its page inside the binary and never reads a file to answer a
 # request. Each FILE is served at /BASENAME (index.html also at /), its Content-Type from its
 # extension. Uses od (coreutils) only.
@@ -17,7 +17,7 @@ tmp="$out.tmp"
         echo "};"
         i=$((i + 1))
     done
-    echo "const hd_serve_asset hd_serve_assets[] = {"
+    echo "const serve_asset serve_assets[] = {"
     i=0
     for f in "$@"; do
         name=$(basename "$f")

@@ -5,7 +5,7 @@
 #include <string.h>
 #include "serve.h"
 
-hd_status hd_engine_open(hd_engine *e, const char *model_path)
+hd_status serve_engine_open(serve_engine *e, const char *model_path)
 {
     memset(e, 0, sizeof *e);
     hd_status st = hd_model_load(model_path, &e->model);
@@ -19,7 +19,7 @@ hd_status hd_engine_open(hd_engine *e, const char *model_path)
     return st;
 }
 
-void hd_engine_close(hd_engine *e)
+void serve_engine_close(serve_engine *e)
 {
     if (!e->model) return;
     pthread_mutex_destroy(&e->lock);

@@ -6,10 +6,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "core/core.h"
+#include "hdnet_tool.h"
 #include "serve.h"
 
-hd_status hd_blob_append(hd_blob *b, const void *data, size_t n)
+hd_status serve_blob_append(serve_blob *b, const void *data, size_t n)
 {
     if (n == 0) return HD_OK;
     if (b->size + n < b->size) return hd_fail(HD_ERR_NOMEM, "buffer size overflows");
@@ -26,7 +26,7 @@ hd_status hd_blob_append(hd_blob *b, const void *data, size_t n)
     return HD_OK;
 }
 
-void hd_blob_free(hd_blob *b)
+void serve_blob_free(serve_blob *b)
 {
     free(b->data);
     memset(b, 0, sizeof *b);
@@ -34,11 +34,11 @@ void hd_blob_free(hd_blob *b)
 
 static const unsigned char png_signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
 
-hd_picture_kind hd_picture_sniff(const unsigned char *data, size_t n)
+serve_picture_kind serve_picture_sniff(const unsigned char *data, size_t n)
 {
-    if (n >= 8 && memcmp(data, png_signature, 8) == 0) return HD_PICTURE_PNG;
-    if (n >= 3 && data[0] == 0xFF && data[1] == 0xD8 && data[2] == 0xFF) return HD_PICTURE_JPEG;
-    return HD_PICTURE_UNKNOWN;
+    if (n >= 8 && memcmp(data, png_signature, 8) == 0) return SERVE_PICTURE_PNG;
+    if (n >= 3 && data[0] == 0xFF && data[1] == 0xD8 && data[2] == 0xFF) return SERVE_PICTURE_JPEG;
+    return SERVE_PICTURE_UNKNOWN;
 }
 
 static unsigned long be32(const unsigned char *p)
@@ -76,13 +76,13 @@ static hd_status probe_jpeg(const unsigned char *d, size_t n, const char *what, 
     return hd_fail(HD_ERR_FORMAT, "%s: bad JPEG: no frame header (truncated?)", what);
 }
 
-hd_status hd_picture_probe(const unsigned char *data, size_t n, const char *what, long *width, long *height)
+hd_status serve_picture_probe(const unsigned char *data, size_t n, const char *what, long *width, long *height)
 {
     *width = *height = 0;
     hd_status st;
-    const hd_picture_kind kind = hd_picture_sniff(data, n);
+    const serve_picture_kind kind = serve_picture_sniff(data, n);
     switch (kind) {
-    case HD_PICTURE_PNG:
+    case SERVE_PICTURE_PNG:
         /* signature, then the IHDR chunk: length 13, "IHDR", width, height */
         if (n < 24 || memcmp(data + 12, "IHDR", 4) != 0)
             return hd_fail(HD_ERR_FORMAT, "%s: bad PNG: no IHDR chunk", what);
@@ -90,14 +90,14 @@ hd_status hd_picture_probe(const unsigned char *data, size_t n, const char *what
         *height = (long)be32(data + 20);
         st = HD_OK;
         break;
-    case HD_PICTURE_JPEG: st = probe_jpeg(data, n, what, width, height); break;
+    case SERVE_PICTURE_JPEG: st = probe_jpeg(data, n, what, width, height); break;
     default: return hd_fail(HD_ERR_FORMAT, "%s: not a PNG or JPEG", what);
     }
     /* a side of 0 (JPEG's "height from a DNL marker", or a broken header) is no size to check the
      * pixel cap against: refused here, as the decoder would refuse it (fuzz_serve found it) */
     if (st == HD_OK && (*width <= 0 || *height <= 0)) {
         st = hd_fail(HD_ERR_FORMAT, "%s: bad %s: the header gives a size of %ldx%ld", what,
-                     kind == HD_PICTURE_PNG ? "PNG" : "JPEG", *width, *height);
+                     kind == SERVE_PICTURE_PNG ? "PNG" : "JPEG", *width, *height);
         *width = *height = 0;
     }
     return st;
@@ -106,10 +106,10 @@ hd_status hd_picture_probe(const unsigned char *data, size_t n, const char *what
 /* The decoding and encoding are the library's (hd_image_decode, hd_image_encode): the same
  * samples, EXIF orientation and checks as reading the bytes from a file, the same bytes as
  * writing one. */
-hd_status hd_picture_decode(const unsigned char *data, size_t n, const char *what, hd_image *rgb)
+hd_status serve_picture_decode(const unsigned char *data, size_t n, const char *what, hd_image *rgb)
 {
     memset(rgb, 0, sizeof *rgb);
-    if (hd_picture_sniff(data, n) == HD_PICTURE_UNKNOWN) return hd_fail(HD_ERR_FORMAT, "%s: not a PNG or JPEG", what);
+    if (serve_picture_sniff(data, n) == SERVE_PICTURE_UNKNOWN) return hd_fail(HD_ERR_FORMAT, "%s: not a PNG or JPEG", what);
     hd_image raw = {0};
     hd_status st = hd_image_decode(data, n, &raw, NULL);
     if (st != HD_OK) return st;
@@ -122,13 +122,13 @@ hd_status hd_picture_decode(const unsigned char *data, size_t n, const char *wha
     return st;
 }
 
-hd_status hd_picture_encode_png(const hd_image *img, hd_blob *png)
+hd_status serve_picture_encode_png(const hd_image *img, serve_blob *png)
 {
     memset(png, 0, sizeof *png);
     unsigned char *data = NULL;
     size_t size = 0;
     hd_status st = hd_image_encode(img, HD_FORMAT_PNG, 0, &data, &size);
-    if (st == HD_OK) st = hd_blob_append(png, data, size);
+    if (st == HD_OK) st = serve_blob_append(png, data, size);
     hd_buffer_free(data);
     return st;
 }

@@ -36,7 +36,7 @@ static void from_direction(float az, float el, const float *intensity, const flo
                             ambient ? *ambient : HD_LIGHT_DEFAULT_AMBIENT, light);
 }
 
-hd_status hd_light_from_json(const char *body, size_t n, float light[HD_SH_COEFFS], hd_brightness *brightness,
+hd_status serve_light_from_json(const char *body, size_t n, float light[HD_SH_COEFFS], hd_brightness *brightness,
                              char *reason, size_t size)
 {
     *brightness = HD_BRIGHTNESS_KEEP;
@@ -100,7 +100,7 @@ static hd_status query_number(const char *s, const char *key, float *v, char *re
     return HD_OK;
 }
 
-hd_status hd_light_from_query(const char *preset, const char *azimuth, const char *elevation, const char *intensity,
+hd_status serve_light_from_query(const char *preset, const char *azimuth, const char *elevation, const char *intensity,
                               const char *ambient, float light[HD_SH_COEFFS], char *reason, size_t size)
 {
     if ((preset != NULL) == (azimuth != NULL || elevation != NULL))
@@ -122,7 +122,7 @@ hd_status hd_light_from_query(const char *preset, const char *azimuth, const cha
     return st;
 }
 
-char *hd_light_text(const float light[HD_SH_COEFFS])
+char *serve_light_text(const float light[HD_SH_COEFFS])
 {
     char *text = malloc(HD_SH_COEFFS * 24 + 1);
     if (!text) return NULL;

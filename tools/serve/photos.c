@@ -1,7 +1,7 @@
 /* photos.c: the photos `hdnet serve` keeps in memory. An upload is decoded (its header size checked
  * against the pixel cap first), every face is aligned and decomposed once, and the maps the page
  * relights with are built at the photo's size: each face's predicted normals and shading, brought
- * from the model's size to the face texture's (normals renormalised, as hd_relight does) and
+ * from the model's size to the face texture's (hd_normal_resize: renormalised) and
  * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
  * faces and falls to 0 over a few pixels at their edge (the page feathers the change from it, as
  * the server's render does). The store keeps at most N photos and evicts the least
@@ -10,32 +10,18 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
-#include "core/core.h"
+#include "hdnet_tool.h"
 #include "serve.h"
 
-const char *const hd_map_names[HD_MAPS] = {"photo", "normal", "shading", "mask"};
+const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask"};
 
-void hd_serve_photo_free(hd_serve_photo *p)
+void serve_photo_free(serve_photo *p)
 {
     if (!p) return;
     hd_image_free(&p->image);
     free(p->faces);
-    for (int m = 0; m < HD_MAPS; m++) hd_blob_free(&p->maps[m]);
+    for (int m = 0; m < SERVE_MAPS; m++) serve_blob_free(&p->maps[m]);
     free(p);
-}
-
-/* In place: each pixel's vector over its length (0 where it has none). */
-static void renormalise(hd_image *n)
-{
-    const size_t HW = (size_t)n->width * (size_t)n->height;
-    float *x = n->data, *y = x + HW, *z = y + HW;
-    for (size_t p = 0; p < HW; p++) {
-        float len = sqrtf(x[p] * x[p] + y[p] * y[p] + z[p] * z[p]);
-        float inv = len > 1e-6f ? 1.0f / len : 0.0f;
-        x[p] *= inv;
-        y[p] *= inv;
-        z[p] *= inv;
-    }
 }
 
 /* One pass of a box filter of radius r along rows (dx = 1) or columns, edges clamped. */
@@ -80,15 +66,12 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
                                hd_image *shading, hd_image *mask)
 {
     hd_image n_tex = {0}, s_tex = {0}, n_ph = {0}, s_ph = {0}, cover = {0}, cover2 = {0};
-    hd_status st = hd_image_resize(&d->normal, f->size, f->size, &n_tex);
+    hd_status st = hd_normal_resize(&d->normal, f->size, f->size, &n_tex);
     if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
-    if (st == HD_OK) {
-        renormalise(&n_tex);
-        st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
-    }
+    if (st == HD_OK) st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
     if (st == HD_OK) st = hd_warp_back(f, &s_tex, &f->mask, &s_ph, &cover2);
     if (st == HD_OK) {
-        renormalise(&n_ph);
+        hd_normal_renormalise(&n_ph);
         const size_t HW = (size_t)normal->width * normal->height;
         for (size_t p = 0; p < HW; p++) {
             if (cover.data[p] <= 0.0f) continue;
@@ -108,7 +91,7 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
 
 /* The four maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces),
  * shading as s / 2, the feathered mask. */
-static hd_status make_maps(hd_serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
+static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
     hd_image normal = {0}, shading = {0}, mask = {0}, encoded = {0};
@@ -125,11 +108,11 @@ static hd_status make_maps(hd_serve_photo *p, const hd_aligned_face *faces, cons
     if (st == HD_OK) st = feather(&mask, (int)fmaxf(2.0f, roundf(0.02f * face_side)));
     if (st == HD_OK) {
         for (size_t q = 0; q < (size_t)W * H; q++) shading.data[q] *= 0.5f;
-        st = hd_picture_encode_png(&p->image, &p->maps[HD_MAP_PHOTO]);
+        st = serve_picture_encode_png(&p->image, &p->maps[SERVE_MAP_PHOTO]);
     }
-    if (st == HD_OK) st = hd_picture_encode_png(&encoded, &p->maps[HD_MAP_NORMAL]);
-    if (st == HD_OK) st = hd_picture_encode_png(&shading, &p->maps[HD_MAP_SHADING]);
-    if (st == HD_OK) st = hd_picture_encode_png(&mask, &p->maps[HD_MAP_MASK]);
+    if (st == HD_OK) st = serve_picture_encode_png(&encoded, &p->maps[SERVE_MAP_NORMAL]);
+    if (st == HD_OK) st = serve_picture_encode_png(&shading, &p->maps[SERVE_MAP_SHADING]);
+    if (st == HD_OK) st = serve_picture_encode_png(&mask, &p->maps[SERVE_MAP_MASK]);
     hd_image_free(&normal);
     hd_image_free(&shading);
     hd_image_free(&mask);
@@ -137,21 +120,21 @@ static hd_status make_maps(hd_serve_photo *p, const hd_aligned_face *faces, cons
     return st;
 }
 
-hd_status hd_serve_photo_make(hd_engine *e, const unsigned char *data, size_t n, long max_pixels,
-                              hd_serve_photo **out)
+hd_status serve_photo_make(serve_engine *e, const unsigned char *data, size_t n, long max_pixels,
+                              serve_photo **out)
 {
     *out = NULL;
     const char *what = "upload";
     long w = 0, h = 0;
-    hd_status st = hd_picture_probe(data, n, what, &w, &h);
+    hd_status st = serve_picture_probe(data, n, what, &w, &h);
     if (st != HD_OK) return st;
     if (w <= 0 || h <= 0) return hd_fail(HD_ERR_FORMAT, "%s: image size %ldx%ld is empty", what, w, h);
     if ((double)w * (double)h > (double)max_pixels)
         return hd_fail(HD_ERR_RANGE, "%s: %ldx%ld is %.0f pixels, over the limit of %ld (--max-pixels)", what, w, h,
                        (double)w * (double)h, max_pixels);
-    hd_serve_photo *p = hd_calloc(1, sizeof *p);
+    serve_photo *p = hd_calloc(1, sizeof *p);
     if (!p) return HD_ERR_NOMEM;
-    st = hd_picture_decode(data, n, what, &p->image);
+    st = serve_picture_decode(data, n, what, &p->image);
     if (st != HD_OK) {
         free(p);
         return st;
@@ -170,7 +153,7 @@ hd_status hd_serve_photo_make(hd_engine *e, const unsigned char *data, size_t n,
     if (st == HD_OK) {
         p->nfaces = nfaces;
         for (int k = 0; k < nfaces; k++) {
-            hd_serve_face *sf = &p->faces[k];
+            serve_face *sf = &p->faces[k];
             memcpy(sf->box, faces[k].box, sizeof sf->box);
             sf->score = faces[k].score;
             for (int i = 0; i < HD_FACE_LANDMARKS; i++) {
@@ -185,7 +168,7 @@ hd_status hd_serve_photo_make(hd_engine *e, const unsigned char *data, size_t n,
     free(ds);
     hd_aligned_faces_free(faces, nfaces);
     if (st != HD_OK) {
-        hd_serve_photo_free(p);
+        serve_photo_free(p);
         return st;
     }
     *out = p;
@@ -194,7 +177,7 @@ hd_status hd_serve_photo_make(hd_engine *e, const unsigned char *data, size_t n,
 
 /* ---------------------------------------------------------------- the store */
 
-hd_status hd_store_init(hd_store *s, int max)
+hd_status serve_store_init(serve_store *s, int max)
 {
     memset(s, 0, sizeof *s);
     if (max < 1) return hd_fail(HD_ERR_ARG, "the store holds at least one photo (asked for %d)", max);
@@ -207,25 +190,25 @@ hd_status hd_store_init(hd_store *s, int max)
     return HD_OK;
 }
 
-void hd_store_free(hd_store *s)
+void serve_store_free(serve_store *s)
 {
     if (!s->slots) return;
-    for (int i = 0; i < s->count; i++) hd_serve_photo_free(s->slots[i]);
+    for (int i = 0; i < s->count; i++) serve_photo_free(s->slots[i]);
     free(s->slots);
     pthread_mutex_destroy(&s->lock);
     memset(s, 0, sizeof *s);
 }
 
 /* Takes slot i out (the lock held); frees the photo unless a request still holds it. */
-static void drop_slot(hd_store *s, int i)
+static void drop_slot(serve_store *s, int i)
 {
-    hd_serve_photo *p = s->slots[i];
+    serve_photo *p = s->slots[i];
     s->slots[i] = s->slots[--s->count];
     p->evicted = 1;
-    if (p->refs == 0) hd_serve_photo_free(p);
+    if (p->refs == 0) serve_photo_free(p);
 }
 
-void hd_store_add(hd_store *s, hd_serve_photo *p, char *evicted_id)
+void serve_store_add(serve_store *s, serve_photo *p, char *evicted_id)
 {
     uint64_t r = 0;
     if (getrandom(&r, sizeof r, 0) != (ssize_t)sizeof r) r = (uint64_t)(hd_seconds() * 1e9);
@@ -246,9 +229,9 @@ void hd_store_add(hd_store *s, hd_serve_photo *p, char *evicted_id)
     pthread_mutex_unlock(&s->lock);
 }
 
-hd_serve_photo *hd_store_get(hd_store *s, const char *id)
+serve_photo *serve_store_get(serve_store *s, const char *id)
 {
-    hd_serve_photo *found = NULL;
+    serve_photo *found = NULL;
     pthread_mutex_lock(&s->lock);
     for (int i = 0; i < s->count; i++)
         if (strcmp(s->slots[i]->id, id) == 0) {
@@ -261,16 +244,16 @@ hd_serve_photo *hd_store_get(hd_store *s, const char *id)
     return found;
 }
 
-void hd_store_release(hd_store *s, hd_serve_photo *p)
+void serve_store_release(serve_store *s, serve_photo *p)
 {
     if (!p) return;
     pthread_mutex_lock(&s->lock);
     int gone = --p->refs == 0 && p->evicted;
     pthread_mutex_unlock(&s->lock);
-    if (gone) hd_serve_photo_free(p);
+    if (gone) serve_photo_free(p);
 }
 
-int hd_store_remove(hd_store *s, const char *id)
+int serve_store_remove(serve_store *s, const char *id)
 {
     int removed = 0;
     pthread_mutex_lock(&s->lock);
@@ -284,7 +267,7 @@ int hd_store_remove(hd_store *s, const char *id)
     return removed;
 }
 
-int hd_store_count(hd_store *s)
+int serve_store_count(serve_store *s)
 {
     pthread_mutex_lock(&s->lock);
     int n = s->count;

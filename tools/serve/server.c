@@ -15,23 +15,23 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include "core/core.h"
+#include "hdnet_tool.h"
 #include "serve.h"
 
 #define JSON_BODY_MAX 65536 /* bytes of a light request */
 #define ID_LEN 16
 
-struct hd_server {
-    hd_serve_options o;
+struct serve_server {
+    serve_options o;
     struct MHD_Daemon *daemon;
-    hd_engine engine;
-    hd_store store;
+    serve_engine engine;
+    serve_store store;
     int loopback; /* bound to a loopback address: only loopback Host headers are served */
 };
 
 /* What one request has received so far. */
 typedef struct request {
-    hd_blob body;
+    serve_blob body;
     int over; /* the body passed its cap */
 } request;
 
@@ -96,12 +96,12 @@ static unsigned status_of(hd_status st)
 
 static enum MHD_Result send_png(struct MHD_Connection *c, const hd_image *img, const char *filename)
 {
-    hd_blob png = {0};
-    if (hd_picture_encode_png(img, &png) != HD_OK) return send_error(c, MHD_HTTP_INTERNAL_SERVER_ERROR, "%s", hd_error());
+    serve_blob png = {0};
+    if (serve_picture_encode_png(img, &png) != HD_OK) return send_error(c, MHD_HTTP_INTERNAL_SERVER_ERROR, "%s", hd_error());
     char disposition[128];
     snprintf(disposition, sizeof disposition, "inline; filename=\"%s\"", filename);
     enum MHD_Result ok = send_bytes(c, MHD_HTTP_OK, "image/png", png.data, png.size, disposition);
-    hd_blob_free(&png);
+    serve_blob_free(&png);
     return ok;
 }
 
@@ -132,7 +132,7 @@ static void add_direction(cJSON *obj, const float light[HD_SH_COEFFS])
     cJSON_AddNumberToObject(obj, "elevation", round(el * 10.0) / 10.0);
 }
 
-static cJSON *photo_json(const hd_server *s, const hd_serve_photo *p, const char *evicted)
+static cJSON *photo_json(const serve_server *s, const serve_photo *p, const char *evicted)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "id", p->id);
@@ -140,7 +140,7 @@ static cJSON *photo_json(const hd_server *s, const hd_serve_photo *p, const char
     cJSON_AddNumberToObject(j, "height", p->height);
     cJSON *faces = cJSON_AddArrayToObject(j, "faces");
     for (int k = 0; k < p->nfaces; k++) {
-        const hd_serve_face *f = &p->faces[k];
+        const serve_face *f = &p->faces[k];
         cJSON *o = cJSON_CreateObject();
         cJSON_AddItemToObject(o, "box", float_array(f->box, 4, tenth));
         cJSON_AddNumberToObject(o, "score", round((double)f->score * 1000.0) / 1000.0);
@@ -151,10 +151,10 @@ static cJSON *photo_json(const hd_server *s, const hd_serve_photo *p, const char
         cJSON_AddItemToArray(faces, o);
     }
     cJSON *maps = cJSON_AddObjectToObject(j, "maps");
-    for (int m = 0; m < HD_MAPS; m++) {
+    for (int m = 0; m < SERVE_MAPS; m++) {
         char url[96];
-        snprintf(url, sizeof url, "/api/photos/%s/maps/%s.png", p->id, hd_map_names[m]);
-        cJSON_AddStringToObject(maps, hd_map_names[m], url);
+        snprintf(url, sizeof url, "/api/photos/%s/maps/%s.png", p->id, serve_map_names[m]);
+        cJSON_AddStringToObject(maps, serve_map_names[m], url);
     }
     cJSON_AddNumberToObject(j, "max_photos", s->o.max_photos);
     if (evicted && *evicted) cJSON_AddStringToObject(j, "evicted", evicted);
@@ -162,7 +162,7 @@ static cJSON *photo_json(const hd_server *s, const hd_serve_photo *p, const char
     return j;
 }
 
-static enum MHD_Result health(struct MHD_Connection *c, hd_server *s)
+static enum MHD_Result health(struct MHD_Connection *c, serve_server *s)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "status", "ok");
@@ -170,7 +170,7 @@ static enum MHD_Result health(struct MHD_Connection *c, hd_server *s)
     cJSON *model = cJSON_AddObjectToObject(j, "model");
     cJSON_AddNumberToObject(model, "size", hd_model_size(s->engine.model));
     cJSON_AddNumberToObject(model, "width", hd_model_width(s->engine.model));
-    cJSON_AddNumberToObject(j, "photos", hd_store_count(&s->store));
+    cJSON_AddNumberToObject(j, "photos", serve_store_count(&s->store));
     cJSON_AddNumberToObject(j, "max_photos", s->o.max_photos);
     pthread_mutex_lock(&s->store.lock);
     cJSON_AddNumberToObject(j, "evictions", (double)s->store.evictions);
@@ -204,7 +204,7 @@ static enum MHD_Result presets(struct MHD_Connection *c)
 
 static enum MHD_Result send_light_file(struct MHD_Connection *c, const float light[HD_SH_COEFFS], const char *name)
 {
-    char *text = hd_light_text(light);
+    char *text = serve_light_text(light);
     if (!text) return send_error(c, MHD_HTTP_SERVICE_UNAVAILABLE, "out of memory");
     char disposition[96];
     snprintf(disposition, sizeof disposition, "attachment; filename=\"%s\"", name);
@@ -236,7 +236,7 @@ static int content_type_is(struct MHD_Connection *c, const char *types)
 
 /* Host names a page on this machine may use: a DNS name pointed at 127.0.0.1 by someone else's
  * page (DNS rebinding) is refused while the server is bound to loopback. */
-static int host_allowed(struct MHD_Connection *c, const hd_server *s)
+static int host_allowed(struct MHD_Connection *c, const serve_server *s)
 {
     if (!s->loopback) return 1;
     const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST);
@@ -256,29 +256,29 @@ static int valid_id(const char *id, size_t len)
 
 /* ---------------------------------------------------------------- the photo routes */
 
-static enum MHD_Result upload(struct MHD_Connection *c, hd_server *s, request *r)
+static enum MHD_Result upload(struct MHD_Connection *c, serve_server *s, request *r)
 {
     if (!content_type_is(c, "image/png|image/jpeg|image/jpg"))
         return send_error(c, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "send the photo as image/png or image/jpeg");
     if (r->body.size == 0) return send_error(c, MHD_HTTP_BAD_REQUEST, "the body is empty: send a PNG or JPEG");
-    if (hd_picture_sniff(r->body.data, r->body.size) == HD_PICTURE_UNKNOWN)
+    if (serve_picture_sniff(r->body.data, r->body.size) == SERVE_PICTURE_UNKNOWN)
         return send_error(c, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "the body is not a PNG or JPEG");
-    hd_serve_photo *p = NULL;
-    hd_status st = hd_serve_photo_make(&s->engine, r->body.data, r->body.size, s->o.max_pixels, &p);
+    serve_photo *p = NULL;
+    hd_status st = serve_photo_make(&s->engine, r->body.data, r->body.size, s->o.max_pixels, &p);
     if (st != HD_OK) return send_error(c, status_of(st), "%s", hd_error());
     char evicted[ID_LEN + 1];
-    hd_store_add(&s->store, p, evicted);
+    serve_store_add(&s->store, p, evicted);
     /* p may be evicted by another upload from here on: describe it under a reference */
-    hd_serve_photo *held = hd_store_get(&s->store, p->id);
+    serve_photo *held = serve_store_get(&s->store, p->id);
     if (!held) return send_error(c, MHD_HTTP_SERVICE_UNAVAILABLE, "the photo was evicted at once (too many uploads)");
     cJSON *j = photo_json(s, held, evicted);
-    hd_store_release(&s->store, held);
+    serve_store_release(&s->store, held);
     return send_json(c, MHD_HTTP_CREATED, j);
 }
 
 /* relight, delight or transfer of photo p: the whole photo through hd_relight_photo, the library
  * call of `hdnet relight`, `delight` and `transfer`, so the pixels are theirs. */
-static enum MHD_Result render(struct MHD_Connection *c, hd_server *s, hd_serve_photo *p, const char *op, request *r)
+static enum MHD_Result render(struct MHD_Connection *c, serve_server *s, serve_photo *p, const char *op, request *r)
 {
     float light[HD_SH_COEFFS];
     hd_brightness brightness = HD_BRIGHTNESS_KEEP;
@@ -287,17 +287,17 @@ static enum MHD_Result render(struct MHD_Connection *c, hd_server *s, hd_serve_p
         if (!content_type_is(c, "application/json"))
             return send_error(c, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "send the light as application/json");
         char reason[256];
-        if (hd_light_from_json((const char *)r->body.data, r->body.size, light, &brightness, reason, sizeof reason) !=
+        if (serve_light_from_json((const char *)r->body.data, r->body.size, light, &brightness, reason, sizeof reason) !=
             HD_OK)
             return send_error(c, MHD_HTTP_BAD_REQUEST, "%s", reason);
     } else if (strcmp(op, "transfer") == 0) {
         const char *ref_id = query(c, "ref");
         if (!ref_id) return send_error(c, MHD_HTTP_BAD_REQUEST, "transfer needs ?ref=ID (the photo whose light to take)");
-        hd_serve_photo *ref = valid_id(ref_id, strlen(ref_id)) ? hd_store_get(&s->store, ref_id) : NULL;
+        serve_photo *ref = valid_id(ref_id, strlen(ref_id)) ? serve_store_get(&s->store, ref_id) : NULL;
         if (!ref) return send_error(c, MHD_HTTP_NOT_FOUND, "no photo '%.32s' in memory (unknown, deleted or evicted)", ref_id);
         /* face 0's light: what hd_estimate_light_photo (hdnet transfer --ref) estimates */
         memcpy(light, ref->faces[0].light, sizeof light);
-        hd_store_release(&s->store, ref);
+        serve_store_release(&s->store, ref);
     } else if (!delight) {
         return send_error(c, MHD_HTTP_NOT_FOUND, "no such operation '%.32s'", op);
     }
@@ -318,7 +318,7 @@ static enum MHD_Result render(struct MHD_Connection *c, hd_server *s, hd_serve_p
 }
 
 /* /api/photos/ID[/rest] */
-static enum MHD_Result photo_route(struct MHD_Connection *c, hd_server *s, const char *method, const char *path,
+static enum MHD_Result photo_route(struct MHD_Connection *c, serve_server *s, const char *method, const char *path,
                                    request *r)
 {
     size_t id_len = strcspn(path, "/");
@@ -329,12 +329,12 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, hd_server *s, const
     id[ID_LEN] = 0;
     const int get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0, post = strcmp(method, "POST") == 0;
     if (*rest == 0 && strcmp(method, "DELETE") == 0) {
-        if (!hd_store_remove(&s->store, id)) return send_error(c, MHD_HTTP_NOT_FOUND, "no photo '%s' in memory", id);
+        if (!serve_store_remove(&s->store, id)) return send_error(c, MHD_HTTP_NOT_FOUND, "no photo '%s' in memory", id);
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "deleted", id);
         return send_json(c, MHD_HTTP_OK, j);
     }
-    hd_serve_photo *p = hd_store_get(&s->store, id);
+    serve_photo *p = serve_store_get(&s->store, id);
     if (!p)
         return send_error(c, MHD_HTTP_NOT_FOUND,
                           "no photo '%s' in memory (unknown, deleted, or evicted: the server keeps the %d most "
@@ -345,11 +345,11 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, hd_server *s, const
     } else if (strncmp(rest, "/maps/", 6) == 0 && get) {
         const char *name = rest + 6;
         int m = 0;
-        for (; m < HD_MAPS; m++) {
-            size_t n = strlen(hd_map_names[m]);
-            if (strncmp(name, hd_map_names[m], n) == 0 && strcmp(name + n, ".png") == 0) break;
+        for (; m < SERVE_MAPS; m++) {
+            size_t n = strlen(serve_map_names[m]);
+            if (strncmp(name, serve_map_names[m], n) == 0 && strcmp(name + n, ".png") == 0) break;
         }
-        ok = m < HD_MAPS ? send_bytes(c, MHD_HTTP_OK, "image/png", p->maps[m].data, p->maps[m].size, NULL)
+        ok = m < SERVE_MAPS ? send_bytes(c, MHD_HTTP_OK, "image/png", p->maps[m].data, p->maps[m].size, NULL)
                          : send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' (photo, normal, shading, mask .png)", name);
     } else if (strcmp(rest, "/light.txt") == 0 && get) {
         const char *fs = query(c, "face");
@@ -368,13 +368,13 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, hd_server *s, const
     } else {
         ok = send_error(c, MHD_HTTP_NOT_FOUND, "no such resource");
     }
-    hd_store_release(&s->store, p);
+    serve_store_release(&s->store, p);
     return ok;
 }
 
 /* ---------------------------------------------------------------- dispatch */
 
-static enum MHD_Result route(struct MHD_Connection *c, hd_server *s, const char *url, const char *method, request *r)
+static enum MHD_Result route(struct MHD_Connection *c, serve_server *s, const char *url, const char *method, request *r)
 {
     if (!host_allowed(c, s))
         return send_error(c, MHD_HTTP_FORBIDDEN, "this server answers only to localhost, 127.x.x.x or [::1]");
@@ -387,7 +387,7 @@ static enum MHD_Result route(struct MHD_Connection *c, hd_server *s, const char 
         if (!get) return send_error(c, MHD_HTTP_METHOD_NOT_ALLOWED, "GET only");
         float light[HD_SH_COEFFS];
         char reason[256];
-        if (hd_light_from_query(query(c, "preset"), query(c, "azimuth"), query(c, "elevation"), query(c, "intensity"),
+        if (serve_light_from_query(query(c, "preset"), query(c, "azimuth"), query(c, "elevation"), query(c, "intensity"),
                                 query(c, "ambient"), light, reason, sizeof reason) != HD_OK)
             return send_error(c, MHD_HTTP_BAD_REQUEST, "%s", reason);
         return send_light_file(c, light, "light.txt");
@@ -397,7 +397,7 @@ static enum MHD_Result route(struct MHD_Connection *c, hd_server *s, const char 
                                            : send_error(c, MHD_HTTP_METHOD_NOT_ALLOWED, "POST a photo here");
     if (strncmp(url, "/api/photos/", 12) == 0) return photo_route(c, s, method, url + 12, r);
     if (strncmp(url, "/api/", 5) == 0) return send_error(c, MHD_HTTP_NOT_FOUND, "no such API route");
-    for (const hd_serve_asset *a = hd_serve_assets; a->path; a++)
+    for (const serve_asset *a = serve_assets; a->path; a++)
         if (strcmp(url, a->path) == 0)
             return get ? send_bytes(c, MHD_HTTP_OK, a->type, a->data, a->size, NULL)
                        : send_error(c, MHD_HTTP_METHOD_NOT_ALLOWED, "GET only");
@@ -405,7 +405,7 @@ static enum MHD_Result route(struct MHD_Connection *c, hd_server *s, const char 
 }
 
 /* The cap on a request's body: the upload limit for photos, 64 KiB for everything else. */
-static size_t body_cap(const hd_server *s, const char *url)
+static size_t body_cap(const serve_server *s, const char *url)
 {
     return strcmp(url, "/api/photos") == 0 ? s->o.max_upload : JSON_BODY_MAX;
 }
@@ -415,7 +415,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
                                   void **con_cls)
 {
     (void)version;
-    hd_server *s = cls;
+    serve_server *s = cls;
     request *r = *con_cls;
     if (!r) { /* the headers are in; the body (if any) follows in later calls */
         if (!(r = calloc(1, sizeof *r))) return MHD_NO;
@@ -434,7 +434,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             return MHD_YES;
         }
         if (r->body.size + *upload_data_size > body_cap(s, url)) return MHD_NO; /* no length given: close */
-        if (hd_blob_append(&r->body, upload_data, *upload_data_size) != HD_OK) return MHD_NO;
+        if (serve_blob_append(&r->body, upload_data, *upload_data_size) != HD_OK) return MHD_NO;
         *upload_data_size = 0;
         return MHD_YES;
     }
@@ -449,14 +449,14 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls, en
     (void)code;
     request *r = *con_cls;
     if (!r) return;
-    hd_blob_free(&r->body);
+    serve_blob_free(&r->body);
     free(r);
     *con_cls = NULL;
 }
 
 /* ---------------------------------------------------------------- start and stop */
 
-hd_status hd_server_start(const hd_serve_options *o, hd_server **out, int *port_out)
+hd_status serve_server_start(const serve_options *o, serve_server **out, int *port_out)
 {
     *out = NULL;
     struct sockaddr_in a4;
@@ -480,14 +480,14 @@ hd_status hd_server_start(const hd_serve_options *o, hd_server **out, int *port_
     } else {
         return hd_fail(HD_ERR_ARG, "--host '%s' is not an IPv4 or IPv6 address", o->host);
     }
-    hd_server *s = hd_calloc(1, sizeof *s);
+    serve_server *s = hd_calloc(1, sizeof *s);
     if (!s) return HD_ERR_NOMEM;
     s->o = *o;
     s->loopback = loopback;
-    hd_status st = hd_engine_open(&s->engine, o->model_path);
-    if (st == HD_OK) st = hd_store_init(&s->store, o->max_photos);
+    hd_status st = serve_engine_open(&s->engine, o->model_path);
+    if (st == HD_OK) st = serve_store_init(&s->store, o->max_photos);
     if (st != HD_OK) {
-        hd_engine_close(&s->engine);
+        serve_engine_close(&s->engine);
         free(s);
         return st;
     }
@@ -498,8 +498,8 @@ hd_status hd_server_start(const hd_serve_options *o, hd_server **out, int *port_
                                  (unsigned)o->max_connections, MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
                                  MHD_OPTION_END);
     if (!s->daemon) {
-        hd_store_free(&s->store);
-        hd_engine_close(&s->engine);
+        serve_store_free(&s->store);
+        serve_engine_close(&s->engine);
         free(s);
         return hd_fail(HD_ERR_IO, "cannot listen on %s port %d (in use, or not an address of this machine)", o->host,
                        o->port);
@@ -510,11 +510,11 @@ hd_status hd_server_start(const hd_serve_options *o, hd_server **out, int *port_
     return HD_OK;
 }
 
-void hd_server_stop(hd_server *s)
+void serve_server_stop(serve_server *s)
 {
     if (!s) return;
     MHD_stop_daemon(s->daemon);
-    hd_store_free(&s->store);
-    hd_engine_close(&s->engine);
+    serve_store_free(&s->store);
+    serve_engine_close(&s->engine);
     free(s);
 }
