@@ -1,8 +1,8 @@
 /* test_threads.c: one model and one aligner shared by 4 threads, 25 calls each, on mixed work
  * (decompositions of 1-4 images of several sizes and channel counts, face alignment of photos, a
- * photo without a face, whole-photo relighting), started together: every call's results (a hash of
- * every output byte), status and error text must equal those of the same call made serially
- * beforehand. Also run under ThreadSanitizer (`make tsan`). The model is a small one with random
+ * photo without a face, whole-photo relighting, warping back and aligning without an aligner),
+ * started together: every call's results (a hash of every output byte), status and error text
+ * must equal those of the same call made serially beforehand. Also run under ThreadSanitizer (`make tsan`). The model is a small one with random
  * weights (width 16: the oneDNN build's blocked layout), written here; the face models and the
  * photo come from the source tree. */
 #include <pthread.h>
@@ -20,6 +20,8 @@ static char source_dir[4096];
 static hd_model *model;
 static hd_aligner *aligner;
 static hd_image inputs[4], photo, photo_small, noise;
+static hd_aligned_face *face0; /* the small photo's first face, for the calls without an aligner */
+static int nface0;
 
 /* One unit of work and what it gave. */
 typedef struct outcome {
@@ -42,11 +44,12 @@ static uint64_t hash_image(uint64_t h, const hd_image *im)
     return im->data ? fnv(h, im->data, (size_t)im->width * im->height * im->channels * sizeof(float)) : h;
 }
 
-#define KINDS 9
+#define KINDS 10
 
 /* Work item k: 0-3 decompose 1-4 of the inputs (from a different first one each), 4 and 5 align
  * the photo at two sizes, 6 aligns noise (no face), 7 relights the photo, 8 decomposes all four
- * inputs in reverse. */
+ * inputs in reverse, 9 warps a face back and aligns it again from its landmarks without an
+ * aligner (on the canonical mesh the library shares between threads). */
 static void run_kind(int k, outcome *o)
 {
     memset(o, 0, sizeof *o);
@@ -77,6 +80,20 @@ static void run_kind(int k, outcome *o)
             h = fnv(h, faces[i].landmarks, sizeof faces[i].landmarks);
         }
         hd_aligned_faces_free(faces, n);
+    } else if (k == 9) {
+        hd_image warped = {0}, coverage = {0};
+        hd_aligned_face again;
+        o->status = hd_warp_back(&face0[0], &face0[0].texture, NULL, &warped, &coverage);
+        if (o->status == HD_OK)
+            o->status = hd_align_face(&photo_small, (const float (*)[3])face0[0].landmarks, 64, &again);
+        if (o->status == HD_OK) {
+            h = hash_image(h, &warped);
+            h = hash_image(h, &coverage);
+            h = hash_image(h, &again.texture);
+            hd_aligned_face_free(&again);
+        }
+        hd_image_free(&warped);
+        hd_image_free(&coverage);
     } else {
         float light[HD_SH_COEFFS];
         hd_light_preset(3, light);
@@ -144,6 +161,8 @@ int main(void)
     snprintf(path, sizeof path, "%s/examples/astronaut.png", source_dir);
     if (st == HD_OK) st = hd_image_read_as(path, 3, &photo);
     if (st == HD_OK) st = hd_image_resize(&photo, 300, 280, &photo_small);
+    if (st == HD_OK) st = hd_aligner_run(aligner, &photo_small, 96, &face0, &nface0);
+    if (st == HD_OK && nface0 < 1) st = hd_fail(HD_ERR_NOTFOUND, "no face in the small photo");
     if (st != HD_OK) {
         fprintf(stderr, "test_threads: %s\n", hd_error());
         return 1;
@@ -191,6 +210,7 @@ int main(void)
     hd_image_free(&photo);
     hd_image_free(&photo_small);
     hd_image_free(&noise);
+    hd_aligned_faces_free(face0, nface0);
     hd_aligner_free(aligner);
     hd_model_free(model);
     return test_summary("test_threads");
