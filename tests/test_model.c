@@ -815,6 +815,69 @@ static void test_albedo_supervised(void)
 
 /* ---- the scale anchor by hand, per image and on the pair: |mean_m S - c| */
 
+/* ---- the shading prior: its target on a grey face under a known light, its value, its warm-up */
+static void test_shading_prior(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 2)) return;
+    size_t HW = 32 * 32;
+    float l[HD_SH_COEFFS];
+    hd_light_from_direction(30.0f, 15.0f, 0.8f, 0.5f, l);
+    /* image 1 is an even grey albedo 0.5 under l: its luminance is 0.5 s(N_bar, l) exactly, so
+     * the target is s(N_bar, l) scaled to the anchor's mean c over the face */
+    float *I = t.batch.image + 3 * HW, *N = t.batch.coarse_normal + 3 * HW, *m = t.batch.mask + HW;
+    double ms = 0, msum = 0;
+    for (size_t p = 0; p < HW; p++) {
+        float n[3] = {N[p], N[HW + p], N[2 * HW + p]}, s = hd_sh_shade(l, n);
+        CHECK(s > 0.0f && 0.5f * s < 1.0f);
+        for (int c = 0; c < 3; c++) I[c * HW + p] = 0.5f * s;
+        ms += m[p];
+        msum += m[p] * s;
+    }
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_SHADING_PRIOR] = 1.0f;
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    double k = t.losses.shading_mean * ms / msum, worst = 0;
+    for (size_t p = 0; p < HW; p++) {
+        if (m[p] == 0.0f) continue;
+        float n[3] = {N[p], N[HW + p], N[2 * HW + p]};
+        worst = fmax(worst, fabs(t.losses.prior[HW + p] - k * hd_sh_shade(l, n)));
+    }
+    CHECK(worst < 1e-4);
+    /* the value: sum over images of w_b mean_m |S - target| / P, from the buffers */
+    double want = 0;
+    for (int b = 0; b < 4; b++) {
+        double num = 0, den = 0;
+        for (size_t p = 0; p < HW; p++) {
+            num += t.batch.mask[b * HW + p] * fabs(t.net.shading[b * HW + p] - t.losses.prior[b * HW + p]);
+            den += t.batch.mask[b * HW + p];
+        }
+        want += t.batch.weight[b] * num / den;
+    }
+    CHECK(want > 1e-3);
+    CHECK_NEAR(r.terms[HD_LOSS_SHADING_PRIOR], want / 2, 1e-5);
+    CHECK_NEAR(r.total, r.terms[HD_LOSS_SHADING_PRIOR], 1e-6);
+    /* images without coarse normals have no prior */
+    t.batch.has_normal[0] = t.batch.has_normal[1] = t.batch.has_normal[2] = t.batch.has_normal[3] = 0;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_SHADING_PRIOR] == 0.0);
+    t.batch.has_normal[0] = t.batch.has_normal[1] = t.batch.has_normal[2] = t.batch.has_normal[3] = 1;
+    /* the warm-up: the weight falls linearly over K iterations, then the term leaves the total */
+    t.shading_prior_iters = 10;
+    CHECK(hd_trainer_prior_ramp(&t, 0) == 1.0f && hd_trainer_prior_ramp(&t, 10) == 0.0f && hd_trainer_prior_ramp(&t, 99) == 0.0f);
+    CHECK_NEAR(hd_trainer_prior_ramp(&t, 4), 0.6, 1e-6);
+    t.iteration = 5;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK_NEAR(r.total, 0.5 * r.terms[HD_LOSS_SHADING_PRIOR], 1e-6);
+    t.iteration = 10;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.total == 0.0 && r.terms[HD_LOSS_SHADING_PRIOR] > 1e-3);
+    t.shading_prior_iters = 0;
+    CHECK(hd_trainer_prior_ramp(&t, 1000000) == 1.0f);
+    hd_trainer_free(&t);
+}
+
 static void test_shading_mean(void)
 {
     hd_trainer t;
@@ -951,6 +1014,7 @@ int main(void)
     test_paths();
     test_albedo_supervised();
     test_shading_mean();
+    test_shading_prior();
     test_light_from_image();
     test_loss_plot();
     test_gradients();

@@ -64,7 +64,7 @@ int cmd_train(int argc, char **argv)
     const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit",
                *anchor_over = "image";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
-    int lnet_iters = -1, quiet = 0, micro = 0;
+    int lnet_iters = -1, quiet = 0, micro = 0, prior_iters = 0;
     float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
     const char *real_dir = NULL;
     int mirror = 0;
@@ -95,6 +95,10 @@ int cmd_train(int argc, char **argv)
          "not the paper's: weight of mean_m|A - A_gt| on sets with NAME.albedo.png (default 0)"},
         {"w-shading-mean", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_MEAN], "X",
          "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
+        {"w-shading-prior", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_PRIOR], "X",
+         "not the paper's: weight of the shading prior |S - s(N_bar, l_img)| (default 0)"},
+        {"shading-prior-iters", 0, CLI_OPT_INT, &prior_iters, "K",
+         "the shading prior's weight falls linearly to 0 over the first K iterations (default 0: constant)"},
         {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",
          "the scale anchor's target mean shading over the face (default 0.8)"},
         {"shading-mean-over", 0, CLI_OPT_STRING, &anchor_over, "image|pair",
@@ -170,6 +174,8 @@ int cmd_train(int argc, char **argv)
     o.light_target_image = strcmp(light_target, "image") == 0;
     if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return cli_usage_error(&spec, "--shading-mean must be in (0, 100)");
     o.shading_mean = shading_mean;
+    if (prior_iters < 0) return cli_usage_error(&spec, "--shading-prior-iters must not be negative");
+    o.shading_prior_iters = prior_iters;
     if (strcmp(anchor_over, "image") != 0 && strcmp(anchor_over, "pair") != 0)
         return cli_usage_error(&spec, "--shading-mean-over must be image or pair, not '%s'", anchor_over);
     o.shading_mean_pair = strcmp(anchor_over, "pair") == 0;
@@ -219,10 +225,9 @@ int cmd_train(int argc, char **argv)
         return CLI_EXIT_OK;
     }
     const char *how = r.end == HD_TRAIN_TIME_LIMIT ? "time limit reached" : r.end == HD_TRAIN_SIGNALLED ? "interrupted" : "done";
-    printf("%s at iteration %ld: loss %.6f (rec %.5f albedo %.5f smooth %.5f normal %.5f light %.5f srec %.5f adv %.5f "
-           "albedo_gt %.5f shading_mean %.5f, disc %.5f); %s/checkpoint.safetensors written\n",
-           how, r.iteration, r.last.total, r.last.terms[0], r.last.terms[1], r.last.terms[2], r.last.terms[3],
-           r.last.terms[4], r.last.terms[5], r.last.terms[6], r.last.terms[7], r.last.terms[8], r.last.disc, out);
+    printf("%s at iteration %ld: loss %.6f (", how, r.iteration, r.last.total);
+    for (int k = 0; k < HD_LOSS_TERMS; k++) printf("%s%s %.5f", k ? " " : "", hd_loss_names[k], r.last.terms[k]);
+    printf(", disc %.5f); %s/checkpoint.safetensors written\n", r.last.disc, out);
     if (r.end == HD_TRAIN_SIGNALLED) {
         fprintf(stderr, "hdnet train: stopped by a signal; continue with --resume\n");
         return CLI_EXIT_FAIL;

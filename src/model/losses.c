@@ -10,12 +10,12 @@
 #define HD_SMOOTH_EPS 0.01f
 
 const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt",
-                                                    "shading_mean"};
+                                                    "shading_mean", "shading_prior"};
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 0.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 0.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -35,7 +35,8 @@ hd_status hd_losses_create(hd_losses *L, hd_net *net)
     L->render = hd_calloc(B * 3 * HW, sizeof(float));
     L->weight = hd_calloc(HW, sizeof(float));
     L->light_hat = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
-    if (!L->shade || !L->d_shade || !L->recon || !L->d_recon || !L->render || !L->weight || !L->light_hat) {
+    L->prior = hd_calloc(B * HW, sizeof(float));
+    if (!L->shade || !L->d_shade || !L->recon || !L->d_recon || !L->render || !L->weight || !L->light_hat || !L->prior) {
         hd_losses_free(L);
         return HD_ERR_NOMEM;
     }
@@ -51,6 +52,7 @@ void hd_losses_free(hd_losses *L)
     free(L->render);
     free(L->weight);
     free(L->light_hat);
+    free(L->prior);
     memset(L, 0, sizeof *L);
 }
 
@@ -68,18 +70,19 @@ float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3
            l[6] * c3 * (3 * y * y - 1) + l[7] * c2 * x * y + l[8] * c4 * (x * x - z * z);
 }
 
-/* --light-target image: l_hat of image b is the least-squares light of the image's luminance on
- * the normals n (as if the albedo were even), scaled so that the mean of s(n, l_hat) over the
- * mask is the scale anchor's c. It reads the photo and the normals only, never S: a shading that
- * has collapsed to a constant (which the paper's terms and the anchor accept, with a DC light)
- * is still pulled by L_l and L_Srec toward the shape of the light the photo shows. Uses image b's
- * part of L->d_shade as scratch (and leaves it zero, as the backward expects). */
-static hd_status light_from_image(hd_losses *L, int b, const float *n)
+/* The photo's own light l_img of image b (--light-target image's l_hat, the shading prior's light):
+ * the least-squares light of the image's luminance on the normals n (as if the albedo were even),
+ * scaled so that the mean of s(n, l) over the mask is the scale anchor's c. It reads the photo and
+ * the normals only, never S: a shading that has collapsed to a constant (which the paper's terms
+ * and the anchor accept, with a DC light) is still pulled toward the shape of the light the photo
+ * shows. Uses image b's part of L->d_shade as scratch (and leaves it zero, as the backward
+ * expects). */
+static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_COEFFS])
 {
     hd_net *net = L->net;
     int HW = net->H * net->W;
     const float *I = L->batch->image + (size_t)b * 3 * HW, *m = L->batch->mask + (size_t)b * HW;
-    float *Y = L->d_shade + (size_t)b * HW, *l = L->light_hat + (size_t)b * HD_SH_COEFFS;
+    float *Y = L->d_shade + (size_t)b * HW;
     for (int p = 0; p < HW; p++) Y[p] = 0.2126f * I[p] + 0.7152f * I[HW + p] + 0.0722f * I[2 * HW + p];
     hd_status st = hd_sh_fit(n, Y, m, HW, l);
     memset(Y, 0, (size_t)HW * sizeof(float)); /* d_shade is the backward's accumulator: leave it clear */
@@ -111,6 +114,16 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
         /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
+        if (batch->has_normal[b]) { /* the shading prior's target */
+            const float *Nb = batch->coarse_normal + (size_t)b * 3 * HW;
+            float li[HD_SH_COEFFS];
+            hd_status st = image_light(L, b, Nb, li);
+            if (st != HD_OK) return st;
+            hd_sh_shading_map(Nb, NULL, HW, li, L->prior + (size_t)b * HW);
+            for (int p = 0; p < HW; p++)
+                if (!isfinite(L->prior[(size_t)b * HW + p]))
+                    return hd_fail(HD_ERR_NUMERIC, "the shading prior of image %d is not finite", b);
+        }
         if (L->hold_light_hat) continue;
         if (batch->has_light && batch->has_light[b]) { /* --light-target gt */
             memcpy(L->light_hat + (size_t)b * HD_SH_COEFFS, batch->light_gt + (size_t)b * HD_SH_COEFFS,
@@ -119,7 +132,7 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         }
         const float *src = target == HD_LIGHT_FROM_COARSE && batch->has_normal[b]
                                ? batch->coarse_normal + (size_t)b * 3 * HW : N;
-        hd_status st = L->light_from_image ? light_from_image(L, b, src)
+        hd_status st = L->light_from_image ? image_light(L, b, src, L->light_hat + (size_t)b * HD_SH_COEFFS)
                                            : hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW,
                                                        L->light_hat + (size_t)b * HD_SH_COEFFS);
         if (st != HD_OK) return st;
@@ -269,6 +282,20 @@ double hd_loss_shading_mean(hd_losses *L, float scale)
     return sum / P;
 }
 
+double hd_loss_shading_prior(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int B = net->B, HW = net->H * net->W, P = B / 2;
+    double sum = 0;
+    for (int b = 0; b < B; b++) {
+        if (!L->batch->has_normal[b]) continue;
+        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL, NULL,
+                                      net->shading + (size_t)b * HW, L->prior + (size_t)b * HW,
+                                      L->batch->mask + (size_t)b * HW, 1, HW, scale * wgt(L, b) / P);
+    }
+    return sum / P;
+}
+
 /* L_s = mean_wx(|dx S| / max(|dx S|, 0.01)) + mean_wy(|dy S| / max(|dy S|, 0.01)). */
 double hd_loss_shading_smoothness(hd_losses *L, float scale)
 {
@@ -397,6 +424,7 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
     terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
     terms[HD_LOSS_ALBEDO_GT] = hd_loss_albedo_supervised(L, s[HD_LOSS_ALBEDO_GT]);
     terms[HD_LOSS_SHADING_MEAN] = hd_loss_shading_mean(L, s[HD_LOSS_SHADING_MEAN]);
+    terms[HD_LOSS_SHADING_PRIOR] = hd_loss_shading_prior(L, s[HD_LOSS_SHADING_PRIOR]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

@@ -28,12 +28,13 @@ typedef enum hd_loss_term {
                         * both presets; anchors the scale A and S share, see docs/training.md) */
     HD_LOSS_SHADING_MEAN, /* not the paper's: the scale anchor, |mean_m S - c| per image (weight 1 in
                            * both presets; docs/training.md) */
+    HD_LOSS_SHADING_PRIOR, /* not the paper's: mean_m |S - s(N_bar, l_img)|, the shading of the photo's own
+                            * light on the coarse normals (weight 0 in both presets; docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 
-/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt", "shading_mean"): CSV
- * columns, the
- * --w-NAME options and the dump's loss.NAME tensors. */
+/* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt", "shading_mean",
+ * "shading_prior"): CSV columns, the --w-NAME options and the dump's loss.NAME tensors. */
 extern const char *const hd_loss_names[HD_LOSS_TERMS];
 
 typedef struct hd_loss_weights {
@@ -56,6 +57,7 @@ typedef struct hd_losses {
     hd_light_target target;
     float *shade, *d_shade, *recon, *d_recon, *render, *weight;
     float *light_hat; /* (B, 9) l_hat, detached */
+    float *prior;     /* (B, HW) the shading prior's target s(N_bar, l_img), detached (images with N_bar) */
     int hold_light_hat; /* gradient checks only: keep light_hat as it is (detached for real) */
     float shading_mean; /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT unless changed) */
     int shading_mean_pair; /* the anchor on the mean of the pair's two mean shadings, not on each image */
@@ -81,6 +83,10 @@ double hd_loss_albedo_supervised(hd_losses *L, float scale);
 /* Not the paper's, the scale anchor: mean over images of |mean_m S - c|, c = L->shading_mean; with
  * L->shading_mean_pair, |(mean_m S_i + mean_m S_j) / 2 - c| for both images of a pair instead. */
 double hd_loss_shading_mean(hd_losses *L, float scale);
+/* Not the paper's, the shading prior: mean_m |S - s(N_bar, l_img)| over the images that have coarse
+ * normals, l_img the least-squares light of the photo's luminance on N_bar scaled so that the
+ * target's mean over the face is the anchor's c. A constant S cannot satisfy it. */
+double hd_loss_shading_prior(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render

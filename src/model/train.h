@@ -41,6 +41,7 @@ typedef struct hd_train_options {
     int light_target_image; /* l_hat fitted to the image's luminance, not to S (not the paper's) */
     float shading_mean;    /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT) */
     int shading_mean_pair; /* the anchor on the pair's mean shading instead of each image's */
+    long shading_prior_iters; /* > 0: the shading prior's weight falls linearly to 0 over these iterations */
     const char *real_dir;  /* a second set (aligned photos) mixed into every batch, or NULL */
     float real_share;      /* probability that a pair is drawn from real_dir (default 0.5) */
     float real_weight;     /* domain weight of real pairs in every term but L_adv (default 1) */

@@ -68,6 +68,12 @@ void hd_trainer_free(hd_trainer *t)
     memset(t, 0, sizeof *t);
 }
 
+float hd_trainer_prior_ramp(const hd_trainer *t, long it)
+{
+    if (t->shading_prior_iters <= 0) return 1.0f;
+    return it >= t->shading_prior_iters ? 0.0f : 1.0f - (float)it / (float)t->shading_prior_iters;
+}
+
 hd_train_phase hd_trainer_stage_phase(const hd_trainer *t, long it)
 {
     if (t->stage != HD_TRAIN_STAGE_2) return HD_PHASE_1;
@@ -135,6 +141,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
     float part = 1.0f / (float)chunks;
     hd_loss_weights w = t->weights;
     for (int k = 0; k < HD_LOSS_TERMS; k++) w.w[k] *= part;
+    w.w[HD_LOSS_SHADING_PRIOR] *= hd_trainer_prior_ramp(t, t->iteration);
     memset(r, 0, sizeof *r);
     /* Each micro-batch's gradient is summed in double (grad_sum: HD-Net's, then the
      * discriminator's), so the float result does not depend on how the micro-batches were split

@@ -65,6 +65,7 @@ typedef struct hd_trainer {
     float lr;
     hd_train_stage stage;
     long lnet_iters; /* stage 2: iterations of phase 2a (L-Net only) */
+    long shading_prior_iters; /* > 0: the shading prior's weight is w (1 - it / K), 0 from it = K on */
     long iteration;  /* steps done */
     uint64_t seed;
     hd_rng rng;      /* checkpointed; data order is derived from (seed, iteration) */
@@ -86,6 +87,9 @@ hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, 
 void hd_trainer_free(hd_trainer *t);
 /* Initialises HD-Net and discriminator parameters exactly as a run with this seed does. */
 void hd_train_init_params(const hd_net_config *cfg, uint64_t seed, float *params, float *disc_params);
+/* The factor of the shading prior's weight at iteration `it` (0-based): 1 - it / K over the
+ * warm-up of K = shading_prior_iters iterations, then 0; always 1 when K is 0. */
+float hd_trainer_prior_ramp(const hd_trainer *t, long it);
 /* The phase of iteration `it` (0-based): HD_PHASE_2A for the first lnet_iters of stage 2. */
 hd_train_phase hd_trainer_stage_phase(const hd_trainer *t, long it);
 /* "1", "2a" or "2b". */
