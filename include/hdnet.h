@@ -244,6 +244,11 @@ void hd_sh_shading_map(const float *normal, const float *mask, int npix,
  * precision through the ridged 9x9 normal equations. mask may be NULL (all ones). */
 hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask, int npix,
                     float light[HD_SH_COEFFS]);
+/* The same pulled toward a prior light: argmin_l sum_p m_p (b(n_p).l - s_p)^2 + strength *
+ * (sum_p m_p) * |l - prior|^2 (strength >= 0; 0: hd_sh_fit; prior NULL: the zero light). With
+ * no pixel in the mask the answer is the prior (when strength > 0). */
+hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
+                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS]);
 /* Light files: 9 numbers, DPR order. Errors name the file and line. */
 /* Largest |coefficient| a light file may hold: the shading of such a light (at most about
  * 10 x HD_LIGHT_MAX_COEFF) and everything computed from it stay far from float overflow. */
@@ -349,7 +354,7 @@ hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd
 /* ---- applying a model to a texture or a photo: the one home (src/apply/apply.c, docs/usage.md
  * "The relighting rule"). */
 typedef enum hd_relight_rule {
-    /* out = I * (s(N, l_target) + g) / (s(N, l_source) + g): l_source the face's estimated light, g a
+    /* out = I * (s(N, l_target) + g) / (s(N, l_source) + g): l_source the face's own light (hd_face_light), g a
      * guard; the eyes, the inside of the mouth and the brows take the change of the skin around
      * them; the change fades to nothing at the face's edge (feathered), the rest is the input's bit
      * for bit. Exactly the identity when the light does not change. The default. */
@@ -359,15 +364,38 @@ typedef enum hd_relight_rule {
     HD_RULE_PAPER
 } hd_relight_rule;
 
-/* What to make of each face. */
+/* The face's own light, l_source of the ratio rule (docs/usage.md, "The source light"). */
+typedef enum hd_source_light {
+    /* The least-squares light of the predicted shading S on the predicted normals N over the
+     * face's skin (its mask without the eyes, the inside of the mouth and the brows): hd_face_light. */
+    HD_SOURCE_FIT = 0,
+    /* L-Net's estimate, the decomposition's light. */
+    HD_SOURCE_LNET
+} hd_source_light;
+
+/* HD_SOURCE_FIT's pull toward L-Net's light (hd_sh_fit_toward's strength). */
+#define HD_SOURCE_PRIOR 0.1f
+/* The ratio rule's guard g = HD_RATIO_GUARD x the face's mean source shading over its skin. */
+#define HD_RATIO_GUARD 0.01f
+
+/* What to make of each face. Zero-filled fields past `brightness` take the defaults. */
 typedef struct hd_apply_request {
     const hd_light_rgb *lights; /* count target lights (may be NULL when count is 0) */
     int count;
     int delight;                /* also the face under flat light */
-    int self;                   /* also the face under its own estimated light (the identity) */
+    int self;                   /* also the face under its own light (the identity) */
     hd_relight_rule rule;
     hd_brightness brightness;   /* for the lights and the delit face */
+    hd_source_light source;     /* the face's own light (ratio rule) */
+    float guard;                /* g as a share of the mean source shading; <= 0: HD_RATIO_GUARD */
 } hd_apply_request;
+
+/* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies
+ * d->light; HD_SOURCE_FIT fits d->shading on d->normal (hd_sh_fit) over the texels where mask
+ * (1 channel, any size, resized to the decomposition's; NULL: all) is > 0.5 outside the face
+ * regions a face model does not explain. */
+hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
+                        float light[HD_SH_COEFFS]);
 
 /* What comes back: pictures of the input's size (a photo: copies of the photo with every face
  * changed; a texture: the texture). */
@@ -376,7 +404,7 @@ typedef struct hd_apply_result {
     int count;
     hd_image delit, self;                  /* when asked for */
     int nfaces;
-    float (*face_light)[HD_SH_COEFFS];     /* nfaces: each face's estimated light (grey) */
+    float (*face_light)[HD_SH_COEFFS];     /* nfaces: each face's own light (the request's source) */
     struct hd_aligned_face *faces;         /* a photo's nfaces faces as aligned; NULL for a texture */
 } hd_apply_result;
 
@@ -401,8 +429,13 @@ hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out);
 hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_image *mask,
                            const hd_image *ref, hd_brightness brightness, hd_image *out);
-/* The light the model estimates for a face (L-Net's output). */
+/* The face's own light, as the ratio rule takes it (hd_face_light with HD_SOURCE_FIT: the fit of
+ * the predicted shading on the predicted normals, pulled toward L-Net's; over the whole texture
+ * without the face regions). decompose's light stays L-Net's. */
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
+/* The same with a mask (1 channel, any size; NULL: all ones) and a choice of source. */
+hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const hd_image *mask, hd_source_light source,
+                                 float light[HD_SH_COEFFS]);
 
 /* The mask of a face image: its companion NAME.mask.png beside the image (NAME = the file name
  * without its last extension) if present, else fallback (a path, may be NULL), else all ones; one
@@ -434,9 +467,13 @@ hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_im
 hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
                            const float (*lights)[HD_SH_COEFFS], int count, hd_brightness brightness,
                            hd_image *relit, hd_image *delit, int *nfaces);
-/* The light the model estimates for the best-scoring face of a photo (its aligned texture). */
+/* The own light (HD_SOURCE_FIT) of the best-scoring face of a photo (its aligned texture and mask):
+ * face_light[0] of hd_apply_photo. */
 hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
                                   float light[HD_SH_COEFFS], int *nfaces);
+/* The same with a choice of source. */
+hd_status hd_estimate_face_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                                       hd_source_light source, float light[HD_SH_COEFFS], int *nfaces);
 /* The decomposition (at the model's size, in the aligned texture space) of the best-scoring face
  * of a photo; face (may be NULL) receives that face (free with hd_aligned_face_free). */
 hd_status hd_decompose_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_decomposition *d,
@@ -675,14 +712,20 @@ const char *hd_photo_metric_name(int metric);
 /* heldout_path (may be NULL): a file of held-out person IDs (blank- or line-separated, '#'
  * comments). limit > 0: only the first `limit` people. A photo that fails (unreadable, no face)
  * is reported through warn and skipped. */
-hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, hd_relight_rule rule,
+/* How the photos are relit: the rule, the face's own light, the guard (<= 0: HD_RATIO_GUARD). */
+typedef struct hd_photo_rule {
+    hd_relight_rule rule;
+    hd_source_light source;
+    float guard;
+} hd_photo_rule;
+hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_photo_rule *how,
                             const char *heldout_path, int limit, hd_photo_eval *eval, void (*warn)(const char *message));
 void hd_photo_eval_free(hd_photo_eval *eval);
 /* The median of a metric over a group (HD_PG_*) and the row of its worst photo (-1 if none). */
 hd_status hd_photo_eval_summary(const hd_photo_eval *eval, int group, int metric, double *median, int *worst);
 /* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
-char *hd_photo_eval_json(const hd_photo_eval *eval, const char *rule);
-hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *eval, const char *rule);
+char *hd_photo_eval_json(const hd_photo_eval *eval, const hd_photo_rule *how);
+hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *eval, const hd_photo_rule *how);
 
 /* Relighting against the truth on a paired synthetic set (src/eval/pair_eval.c): image i of each
  * subject relit under the true light of the subject's next image j (cyclically) and compared with
@@ -703,7 +746,10 @@ typedef struct hd_pair_report {
     hd_pair_row rows[HD_PAIR_ROWS];
     long pairs, skipped;
 } hd_pair_report;
-hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *report, void (*warn)(const char *message));
+/* how: the model rows' source light and the guard of every ratio row (rule ignored; the exact
+ * ratio takes the true light as the source). */
+hd_status hd_pair_eval_run(const char *dir, hd_model *model, const hd_photo_rule *how, hd_pair_report *report,
+                           void (*warn)(const char *message));
 /* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
 char *hd_pair_report_json(const hd_pair_report *report);
 hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);

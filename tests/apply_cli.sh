@@ -72,6 +72,19 @@ expect 0 "$HDNET" estimate-light face.png $M -o L.txt --preview sphere.png --siz
 [ "$(png_size sphere.png)" = "48 48" ] || fail "sphere preview size"
 expect 0 "$HDNET" relight small.png $M --light L.txt -o t2.png
 cmp t.png t2.png || fail "transfer differs from relight under the estimated light"
+# the source light: lnet is decompose's light (L-Net's) exactly; fit (the default) is not; both
+# work through transfer = estimate-light + relight --light
+expect 0 "$HDNET" estimate-light face.png $M --source-light lnet -o Ll.txt
+cmp Ll.txt out1/face.light.txt || fail "estimate-light --source-light lnet is not decompose's light"
+cmp -s L.txt Ll.txt && fail "the fitted source light is L-Net's to the last digit"
+expect 0 "$HDNET" estimate-light face.png $M --source-light fit -o Lf.txt
+cmp L.txt Lf.txt || fail "estimate-light's default is not --source-light fit"
+expect 0 "$HDNET" transfer small.png --ref face.png $M --source-light lnet -o tl.png
+expect 0 "$HDNET" relight small.png $M --light Ll.txt --source-light lnet -o tl2.png
+cmp tl.png tl2.png || fail "transfer --source-light lnet differs from relight under L-Net's light"
+expect 0 "$HDNET" delight small.png $M --source-light lnet -o dl.png
+expect_saying 2 "fit or lnet" "$HDNET" relight small.png $M --preset 1 --source-light bogus -o x.png
+expect_saying 2 "fit or lnet" "$HDNET" estimate-light small.png $M --source-light LNET -o x.txt
 expect 0 "$HDNET" delight small.png $M -o d.png
 expect 0 "$HDNET" delight gray.pfm $M -o d_gray.png
 [ "$(png_size d_gray.png)" = "4 4" ] || fail "delit gray image size"

@@ -35,7 +35,16 @@ grep -q '"photo":	"001/neutral"' ratio.json || fail "the JSON does not name the 
 expect 0 "$HDNET" eval "$people" --photos -m m.safetensors --rule paper -o paper.json
 pself=$(json_num paper.json all self)
 awk -v s="$pself" 'BEGIN { exit !(s > 0.01) }' || fail "the paper's rule scores self $pself: the measure cannot fail"
+grep -q '"source_light":	"fit"' ratio.json || fail "ratio.json does not name the source light fit"
+# L-Net's light as the source: still exactly the identity under it
+expect 0 "$HDNET" eval "$people" --photos -m m.safetensors --source-light lnet --guard 0.1 -o lnet.json
+[ "$(json_num lnet.json all self)" = "0" ] || fail "self is not 0 with --source-light lnet"
+grep -q '"source_light":	"lnet"' lnet.json || fail "lnet.json does not name the source light lnet"
+grep -q '"guard":	0.1' lnet.json || fail "lnet.json does not give the guard 0.1"
 expect_saying 2 "--rule wants" "$HDNET" eval "$people" --photos --rule other
+expect_saying 2 "fit or lnet" "$HDNET" eval "$people" --photos --source-light other
+expect_saying 2 "--guard wants" "$HDNET" eval "$people" --photos --guard -1
+expect_saying 2 "go with --photos or --pairs" "$HDNET" eval "$people" --guard 0.1
 expect_saying 2 "exclude" "$HDNET" eval "$people" --photos --pairs
 
 # paired synthetic set
@@ -46,6 +55,15 @@ unchanged=$(awk '$1 == "input" { print $3 }' out.log)
 exact=$(awk '$1 == "exact" && $2 == "decomposition" { print $3 }' out.log)
 awk -v u="$unchanged" -v e="$exact" 'BEGIN { exit !(e < 0.5 * u) }' || fail "exact decomposition MAE $exact is not below half of unchanged $unchanged"
 grep -q '"ssim"' pairs.json || fail "no SSIM in pairs.json"
+# the guard costs the rule with the true normals and light: a larger one lands farther from j
+ratio_at() { awk '$1 == "exact" && $2 == "ratio" { print $6 }' "$1"; }
+cp out.log pairs_default.txt
+expect 0 "$HDNET" eval syn --pairs -m m.safetensors --guard 0.3
+cp out.log pairs_g03.txt
+r1=$(ratio_at pairs_default.txt)
+r3=$(ratio_at pairs_g03.txt)
+awk -v a="$r1" -v b="$r3" 'BEGIN { exit !(a > 0 && b > a) }' || fail "exact ratio MAE $r1 with the default guard, $r3 with 0.3: expected it to grow"
+grep -q "guard 0.3" pairs_g03.txt || fail "the pairs table does not give the guard"
 # --json: the same document on stdout, instead of the table
 expect 0 "$HDNET" eval syn --pairs -m m.safetensors --json
 cmp -s out.log pairs.json || { diff out.log pairs.json >&2; fail "eval --pairs --json on stdout differs from -o pairs.json"; }

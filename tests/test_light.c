@@ -92,6 +92,83 @@ static void random_light(hd_rng *r, float light[9])
     for (int k = 1; k < 9; k++) light[k] = hd_rng_range(r, -0.5f, 0.5f);
 }
 
+/* sum_p m_p (b.l - s_p)^2 + strength * (sum_p m_p) * |l - prior|^2, in double: the objective of
+ * hd_sh_fit_toward, evaluated directly. */
+static double fit_objective(const float *normal, const float *shading, const float *mask, int npix,
+                            const float prior[9], double strength, const double l[9])
+{
+    double J = 0, W = 0;
+    for (int p = 0; p < npix; p++) {
+        double m = mask ? mask[p] : 1.0;
+        if (!(m > 0)) continue;
+        float n[3] = {normal[p], normal[npix + p], normal[2 * npix + p]}, b[9];
+        hd_sh_basis(n, b);
+        double e = -shading[p];
+        for (int k = 0; k < 9; k++) e += b[k] * l[k];
+        J += m * e * e;
+        W += m;
+    }
+    for (int k = 0; k < 9; k++) J += strength * W * (l[k] - prior[k]) * (l[k] - prior[k]);
+    return J;
+}
+
+/* The fit toward a prior: 0 is hd_sh_fit; the answer is the objective's minimum (every coefficient
+ * nudged either way raises it); the truth as the prior gives the truth back; a strong pull gives
+ * the prior; an empty mask gives the prior; a bad strength is refused. */
+static void test_fit_toward(void)
+{
+    enum { NPIX = 2000 };
+    hd_rng r;
+    hd_rng_seed(&r, 21, 5);
+    float *normal = malloc(3 * NPIX * sizeof(float)), *shading = malloc(NPIX * sizeof(float));
+    float *mask = malloc(NPIX * sizeof(float));
+    float light[9], prior[9], a[9], b[9];
+    random_light(&r, light);
+    random_light(&r, prior);
+    render(&r, NPIX, light, 0.02f, normal, shading);
+    for (int p = 0; p < NPIX; p++) mask[p] = p % 4 ? 1.0f : 0.5f;
+    CHECK(hd_sh_fit(normal, shading, mask, NPIX, a) == HD_OK);
+    CHECK(hd_sh_fit_toward(normal, shading, mask, NPIX, prior, 0.0f, b) == HD_OK);
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    const float strengths[3] = {0.01f, 0.1f, 1.0f};
+    double last = 0;
+    for (int i = 0; i < 3; i++) {
+        CHECK(hd_sh_fit_toward(normal, shading, mask, NPIX, prior, strengths[i], b) == HD_OK);
+        double l[9];
+        for (int k = 0; k < 9; k++) l[k] = b[k];
+        double J = fit_objective(normal, shading, mask, NPIX, prior, strengths[i], l);
+        int minimum = 1;
+        for (int k = 0; k < 9; k++)
+            for (int sgn = -1; sgn <= 1; sgn += 2) {
+                double m[9];
+                memcpy(m, l, sizeof m);
+                m[k] += sgn * 1e-3;
+                minimum &= fit_objective(normal, shading, mask, NPIX, prior, strengths[i], m) > J;
+            }
+        CHECK(minimum);
+        /* a stronger pull lands nearer the prior (the Euclidean distance falls with the strength) */
+        double d = 0;
+        for (int k = 0; k < 9; k++) d += ((double)b[k] - prior[k]) * ((double)b[k] - prior[k]);
+        if (i > 0) CHECK(d < last);
+        last = d;
+    }
+    render(&r, NPIX, light, 0.0f, normal, shading);
+    CHECK(hd_sh_fit_toward(normal, shading, NULL, NPIX, light, 0.5f, b) == HD_OK);
+    CHECK(max_abs_diff(b, light, 9) <= 1e-4);
+    CHECK(hd_sh_fit_toward(normal, shading, NULL, NPIX, prior, 1e6f, b) == HD_OK);
+    CHECK(max_abs_diff(b, prior, 9) <= 1e-4);
+    for (int p = 0; p < NPIX; p++) mask[p] = 0.0f;
+    CHECK(hd_sh_fit_toward(normal, shading, mask, NPIX, prior, 0.1f, b) == HD_OK);
+    CHECK(memcmp(b, prior, sizeof b) == 0);
+    CHECK(hd_sh_fit_toward(normal, shading, NULL, NPIX, prior, -1.0f, b) == HD_ERR_ARG);
+    CHECK(hd_sh_fit_toward(normal, shading, NULL, NPIX, prior, NAN, b) == HD_ERR_ARG);
+    prior[3] = INFINITY;
+    CHECK(hd_sh_fit_toward(normal, shading, NULL, NPIX, prior, 0.1f, b) == HD_ERR_NUMERIC);
+    free(normal);
+    free(shading);
+    free(mask);
+}
+
 static void test_fit(void)
 {
     enum { NPIX = 4096 };
@@ -466,6 +543,7 @@ int main(void)
     test_vectors();
     test_constant_and_linear();
     test_fit();
+    test_fit_toward();
     test_direction();
     test_mirror();
     test_light_files();

@@ -174,13 +174,14 @@ static void test_fields(void)
 
 #define SIDE 64
 
-/* An exact face: normals of a bulge, albedo with a little colour, I = A * s(N, l). */
+/* An exact face: normals of a bulge, albedo with a little colour, S = s(N, l), I = A * S. */
 static void make_face(const float light[HD_SH_COEFFS], hd_decomposition *d, hd_image *input, hd_image *mask)
 {
     memset(d, 0, sizeof *d);
     const size_t P = SIDE * SIDE;
     d->normal = image(SIDE, SIDE, 3, 0);
     d->albedo = image(SIDE, SIDE, 3, 0);
+    d->shading = image(SIDE, SIDE, 1, 0);
     *input = image(SIDE, SIDE, 3, 0);
     *mask = image(SIDE, SIDE, 1, 0);
     memcpy(d->light, light, sizeof d->light);
@@ -191,6 +192,7 @@ static void make_face(const float light[HD_SH_COEFFS], hd_decomposition *d, hd_i
             float n[3] = {0.8f * u, 0.8f * v, 1.0f}, len = sqrtf(n[0] * n[0] + n[1] * n[1] + 1.0f);
             for (int k = 0; k < 3; k++) d->normal.data[k * P + p] = n[k] / len;
             float nn[3] = {n[0] / len, n[1] / len, n[2] / len}, s = hd_sh_shade(light, nn);
+            d->shading.data[p] = s;
             for (int c = 0; c < 3; c++) {
                 float a = 0.35f + 0.05f * c + 0.05f * sinf(0.8f * x + c) * cosf(0.6f * y);
                 d->albedo.data[c * P + p] = a;
@@ -204,6 +206,7 @@ static void free_face(hd_decomposition *d, hd_image *input, hd_image *mask)
 {
     hd_image_free(&d->normal);
     hd_image_free(&d->albedo);
+    hd_image_free(&d->shading);
     hd_image_free(input);
     hd_image_free(mask);
 }
@@ -219,7 +222,7 @@ static void test_rule(void)
     const size_t P = SIDE * SIDE;
     hd_light_rgb t;
     hd_light_rgb_from_grey(tgt, &t);
-    hd_apply_request q = {&t, 1, 1, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE};
+    hd_apply_request q = {&t, 1, 1, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
     hd_apply_result r;
     if (hd_apply_decomposition(&in, &d, &mask, &q, &r) != HD_OK) {
         fprintf(stderr, "test_relight_rule: %s\n", hd_error());
@@ -265,7 +268,7 @@ static void test_rule(void)
             bad.normal.data[p] = 1, bad.normal.data[P + p] = 0, bad.normal.data[2 * P + p] = 0;
         }
     CHECK(in_regions > 20);
-    hd_apply_request q1 = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE};
+    hd_apply_request q1 = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
     hd_apply_result good, worse;
     CHECK(hd_apply_decomposition(&in, &d, &mask, &q1, &good) == HD_OK);
     CHECK(hd_apply_decomposition(&in, &bad, &mask, &q1, &worse) == HD_OK);
@@ -276,7 +279,7 @@ static void test_rule(void)
     hd_image_free(&regions);
 
     /* brightness kept: the feather-weighted mean luminance of the face is the input's */
-    hd_apply_request qk = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP};
+    hd_apply_request qk = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
     CHECK(hd_apply_decomposition(&in, &d, &mask, &qk, &r) == HD_OK);
     double li = 0, lo = 0;
     for (size_t p = 0; p < P; p++) {
@@ -290,7 +293,7 @@ static void test_rule(void)
     /* a coloured light changes the channels apart; the paper's rule refuses it */
     hd_light_rgb warm = t;
     for (int k = 0; k < HD_SH_COEFFS; k++) warm.sh[2][k] *= 0.5f;
-    hd_apply_request qc = {&warm, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE};
+    hd_apply_request qc = {&warm, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
     CHECK(hd_apply_decomposition(&in, &d, &mask, &qc, &r) == HD_OK);
     size_t mid = (SIDE / 2) * SIDE + SIDE / 2;
     CHECK(r.relit[0].data[2 * P + mid] / in.data[2 * P + mid] < 0.8f * r.relit[0].data[mid] / in.data[mid]);
@@ -298,6 +301,112 @@ static void test_rule(void)
     qc.rule = HD_RULE_PAPER;
     CHECK(hd_apply_decomposition(&in, &d, &mask, &qc, &r) == HD_ERR_ARG);
     hd_image_free(&w);
+    free_face(&d, &in, &mask);
+}
+
+/* The face's own light: S rendered exactly from a known light on known normals fits back to that
+ * light; L-Net's (d->light) is taken as it is; a wrong L-Net light is mostly corrected by the fit
+ * (its shading lands far nearer S); the rule stays the identity under the face's own light, and
+ * face_light reports the light the rule used. */
+static void test_source_light(void)
+{
+    float src[HD_SH_COEFFS], other[HD_SH_COEFFS], got[HD_SH_COEFFS];
+    hd_light_from_direction(-30, 15, 1.0f, 0.6f, src);
+    hd_light_from_direction(35, -10, 0.7f, 0.8f, other);
+    hd_decomposition d;
+    hd_image in, mask;
+    make_face(src, &d, &in, &mask);
+    const size_t P = SIDE * SIDE;
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, got) == HD_OK);
+    double e = 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++) e = fmax(e, fabs(got[k] - src[k]));
+    CHECK(e < 1e-4);
+    /* L-Net's wrong: the fit (pulled toward it a little) still follows S */
+    memcpy(d.light, other, sizeof other);
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_LNET, got) == HD_OK);
+    CHECK(memcmp(got, other, sizeof got) == 0);
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, got) == HD_OK);
+    double fit_err = 0, lnet_err = 0;
+    long n = 0;
+    for (size_t p = 0; p < P; p++) {
+        if (mask.data[p] <= 0.5f) continue;
+        float nn[3] = {d.normal.data[p], d.normal.data[P + p], d.normal.data[2 * P + p]};
+        fit_err += fabs(hd_sh_shade(got, nn) - d.shading.data[p]);
+        lnet_err += fabs(hd_sh_shade(other, nn) - d.shading.data[p]);
+        n++;
+    }
+    printf("source light: shading MAE over the mask, fit %.4f, the wrong L-Net light %.4f\n", fit_err / n, lnet_err / n);
+    CHECK(fit_err < 0.5 * lnet_err);
+    /* the rule from the fitted light: the identity under it, and face_light is it */
+    hd_light_rgb t;
+    hd_light_rgb_from_grey(src, &t);
+    hd_apply_request q = {&t, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
+    hd_apply_result r;
+    CHECK(hd_apply_decomposition(&in, &d, &mask, &q, &r) == HD_OK);
+    CHECK(memcmp(r.self.data, in.data, 3 * P * sizeof(float)) == 0);
+    CHECK(memcmp(r.face_light[0], got, sizeof got) == 0);
+    /* the fitted light is near the true one, so relighting under the true light hardly moves it;
+     * from L-Net's wrong light it moves it much more */
+    double near_fit = hd_photo_mae(&in, &r.relit[0], NULL);
+    hd_apply_result_free(&r);
+    q.source = HD_SOURCE_LNET;
+    CHECK(hd_apply_decomposition(&in, &d, &mask, &q, &r) == HD_OK);
+    CHECK(memcmp(r.self.data, in.data, 3 * P * sizeof(float)) == 0);
+    CHECK(memcmp(r.face_light[0], other, sizeof other) == 0);
+    double near_lnet = hd_photo_mae(&in, &r.relit[0], NULL);
+    hd_apply_result_free(&r);
+    printf("relit under its true light: MAE %.4f from the fitted source, %.4f from L-Net's wrong one\n", near_fit,
+           near_lnet);
+    CHECK(near_fit < 0.5 * near_lnet);
+    /* no shading to fit: refused, naming it */
+    hd_image_free(&d.shading);
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, got) == HD_ERR_ARG);
+    CHECK(hd_face_light(&d, &mask, (hd_source_light)7, got) == HD_ERR_ARG);
+    free_face(&d, &in, &mask);
+}
+
+/* The guard: g = share x the mean source shading; a smaller guard brings the rule on an exact
+ * decomposition nearer A * s(N, l_target) where the source shading is low. */
+static void test_guard(void)
+{
+    float src[HD_SH_COEFFS], tgt[HD_SH_COEFFS];
+    hd_light_from_direction(60, 0, 1.2f, 0.15f, src); /* one side of the bulge dark */
+    hd_light_from_direction(-60, 0, 1.2f, 0.15f, tgt);
+    hd_decomposition d;
+    hd_image in, mask;
+    make_face(src, &d, &in, &mask);
+    const size_t P = SIDE * SIDE;
+    hd_light_rgb t;
+    hd_light_rgb_from_grey(tgt, &t);
+    hd_image w = image(SIDE, SIDE, 1, 0), regions;
+    CHECK(hd_field_feather(mask.data, SIDE, SIDE, 0.04f * SIDE, w.data) == HD_OK);
+    CHECK(hd_face_regions_uv(SIDE, &regions) == HD_OK);
+    const float guards[3] = {0.3f, 0.1f, 0.02f};
+    double errs[3];
+    for (int i = 0; i < 3; i++) {
+        hd_apply_request q = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, guards[i]};
+        hd_apply_result r;
+        errs[i] = 1;
+        if (hd_apply_decomposition(&in, &d, &mask, &q, &r) != HD_OK) {
+            CHECK(0);
+            continue;
+        }
+        double err = 0;
+        long n = 0;
+        for (size_t p = 0; p < P; p++) {
+            if (w.data[p] < 1.0f || regions.data[p] > 0.5f) continue;
+            float nn[3] = {d.normal.data[p], d.normal.data[P + p], d.normal.data[2 * P + p]};
+            float s = hd_sh_shade(tgt, nn);
+            for (int c = 0; c < 3; c++) err += fabs(r.relit[0].data[c * P + p] - d.albedo.data[c * P + p] * (s > 0 ? s : 0));
+            n += 3;
+        }
+        errs[i] = err / n;
+        hd_apply_result_free(&r);
+    }
+    printf("guard 0.3 / 0.1 / 0.02: MAE against A s(N, l_target) %.4f / %.4f / %.4f\n", errs[0], errs[1], errs[2]);
+    CHECK(errs[1] < errs[0] && errs[2] < errs[1]);
+    hd_image_free(&w);
+    hd_image_free(&regions);
     free_face(&d, &in, &mask);
 }
 
@@ -313,5 +422,7 @@ int main(void)
     test_metrics();
     test_fields();
     test_rule();
+    test_source_light();
+    test_guard();
     return test_summary("test_relight_rule");
 }

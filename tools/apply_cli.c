@@ -43,3 +43,11 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
     free(path);
     return st;
 }
+
+int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source)
+{
+    if (strcmp(value, "fit") == 0) *source = HD_SOURCE_FIT;
+    else if (strcmp(value, "lnet") == 0) *source = HD_SOURCE_LNET;
+    else return cli_usage_error(spec, "--source-light wants fit or lnet, got '%s'", value);
+    return 0;
+}

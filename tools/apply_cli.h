@@ -5,6 +5,7 @@
 #define HD_APPLY_CLI_H
 
 #include "batch.h"
+#include "cli.h"
 #include "hdnet_tool.h"
 
 /* What every input of a run shares. */
@@ -29,5 +30,13 @@ hd_status cli_apply_input(cli_apply_run *run, const cli_input *in, hd_image *pic
  * (index 0) is noted in r->wrote. */
 hd_status cli_apply_write(const cli_input *in, const char *out, int single, const char *suffix, int index,
                           const hd_image *pic, cli_result *r);
+
+/* --source-light fit|lnet: the face's own light of the ratio rule (docs/usage.md, "The source light"). */
+#define CLI_OPT_SOURCE_LIGHT_ROW(var)                                                                                  \
+    {"source-light", 0, CLI_OPT_STRING, &(var), "fit|lnet",                                                            \
+     "the face's own light: fit, the least-squares light of the predicted shading on the predicted normals over "      \
+     "the skin (the default), or lnet, L-Net's estimate"}
+/* Reads a --source-light value; a usage error (nonzero) when it is neither. */
+int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source);
 
 #endif /* HD_APPLY_CLI_H */

@@ -24,7 +24,7 @@ static hd_status delight_one(void *ctx, const cli_input *in, const char *out, in
 
 int cmd_delight(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *source = NULL;
     int aligned = 0, threads = 0, quiet = 0;
     cli_clip clip = {0};
     float min_score = cli_min_score_default();
@@ -35,6 +35,7 @@ int cmd_delight(int argc, char **argv)
          "folder: the output folder (OUT/NAME.delit.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         CLI_OPT_ALIGNED_ROW(aligned),
+        CLI_OPT_SOURCE_LIGHT_ROW(source),
         CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
@@ -44,7 +45,7 @@ int cmd_delight(int argc, char **argv)
     const cli_cmd_spec spec = {
         "delight", "IMG|DIR|@LIST ... [-m MODEL] -o OUT [--aligned [--mask M.png]]",
         "Removes the lighting of every face of a photo: each face is aligned and decomposed, and the photo\n"
-        "is multiplied by (1 + g) / (s(N, l_face) + g), the change from the face's estimated light to a\n"
+        "is multiplied by (1 + g) / (s(N, l_face) + g), the change from the face's own light to a\n"
         "flat one on the predicted normals (docs/usage.md), faded to nothing at the face's edge, with the\n"
         "face's mean brightness kept. With --aligned (or a companion NAME.mask.png / NAME.normal.png) IMG\n"
         "is an aligned face texture: changed inside the mask, the input where it is not. Many inputs\n"
@@ -56,14 +57,19 @@ int cmd_delight(int argc, char **argv)
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     cli_inputs in = {0};
-    cli_apply_run run = {"delight", {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP}, mask_path, aligned, 0,
+    cli_apply_run run = {"delight", {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f}, mask_path, aligned, 0,
                          min_score, NULL, NULL};
     int rc = CLI_EXIT_FAIL;
-    if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required")))) {
+    if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
+        (source && (code = cli_source_light_parse(&spec, source, &run.request.source)))) {
         free(pos);
         return code;
     }
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        if (run.request.source != HD_SOURCE_FIT) {
+            free(pos);
+            return cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
+        }
         rc = cli_video("delight", pos[0], out, model_path, NULL, NULL, HD_BRIGHTNESS_KEEP, &clip);
         free(pos);
         return rc;

@@ -1,10 +1,12 @@
-/* cmd_estimate_light.c: `hdnet estimate-light`: the light the model estimates for a face (L-Net's 9
- * SH coefficients): the best-scoring face of a photo (aligned first) or an aligned face texture;
+/* cmd_estimate_light.c: `hdnet estimate-light`: the face's own light (9 SH coefficients: the fit of
+ * the predicted shading on the predicted normals, or L-Net's estimate, docs/usage.md "The source
+ * light"): the best-scoring face of a photo (aligned first) or an aligned face texture;
  * written as a light file, optionally drawn on a sphere, or printed as JSON (docs/usage.md).
- * hd_estimate_light and hd_estimate_light_photo are the cores; estimate_one is the per-photo step
+ * hd_estimate_face_light and hd_estimate_face_light_photo are the cores; estimate_one is the per-photo step
  * the batch loop (batch.c) runs over every input; the rest is file handling. */
 #include <stdlib.h>
 #include <string.h>
+#include "apply_cli.h"
 #include "batch.h"
 #include "cli.h"
 
@@ -14,6 +16,7 @@ typedef struct estimate_run {
     const char *preview;
     int size, aligned;
     float min_score;
+    hd_source_light source;
     hd_model *model;
     hd_aligner *aligner;
     cJSON *results; /* --json: one object per input done */
@@ -23,7 +26,7 @@ static hd_status estimate_one(void *ctx, const cli_input *in, const char *out, i
 {
     estimate_run *run = ctx;
     const int photo = !run->aligned && hd_input_kind_of(in->path) == HD_INPUT_PHOTO;
-    hd_image tex = {0}, sphere = {0};
+    hd_image tex = {0}, sphere = {0}, mask = {0};
     float light[HD_SH_COEFFS];
     char *path = NULL;
     hd_status st = hd_image_read_as(in->path, 3, &tex);
@@ -32,9 +35,11 @@ static hd_status estimate_one(void *ctx, const cli_input *in, const char *out, i
         if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
     }
     r->faces = 1;
+    /* an aligned texture's light is fitted over its companion mask (none: the whole texture) */
+    if (st == HD_OK && !photo) st = hd_face_mask_read(in->path, NULL, tex.width, tex.height, &mask, NULL);
     if (st == HD_OK)
-        st = photo ? hd_estimate_light_photo(run->model, run->aligner, &tex, light, &r->faces)
-                   : hd_estimate_light(run->model, &tex, light);
+        st = photo ? hd_estimate_face_light_photo(run->model, run->aligner, &tex, run->source, light, &r->faces)
+                   : hd_estimate_face_light(run->model, &tex, &mask, run->source, light);
     if (st == HD_OK && photo && r->faces > 1 && !run->results)
         fprintf(stderr, "hdnet estimate-light: note: %s has %d faces; this is the light of face 0 (best score)\n",
                 in->path, r->faces);
@@ -65,13 +70,14 @@ static hd_status estimate_one(void *ctx, const cli_input *in, const char *out, i
     }
     free(path);
     hd_image_free(&sphere);
+    hd_image_free(&mask);
     hd_image_free(&tex);
     return st;
 }
 
 int cmd_estimate_light(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *preview = NULL;
+    const char *model_path = NULL, *out = NULL, *preview = NULL, *source = NULL;
     int size = 256, aligned = 0, threads = 0, quiet = 0, json = 0;
     float min_score = cli_min_score_default();
     const cli_opt opts[] = {
@@ -82,6 +88,7 @@ int cmd_estimate_light(int argc, char **argv)
         {"preview", 0, CLI_OPT_STRING, &preview, "SPHERE.png", "also draw the light on a sphere (one input only)"},
         {"size", 0, CLI_OPT_INT, &size, "N", "side of the sphere picture in pixels (default 256)"},
         CLI_OPT_ALIGNED_ROW(aligned),
+        CLI_OPT_SOURCE_LIGHT_ROW(source),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),
@@ -90,9 +97,12 @@ int cmd_estimate_light(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "estimate-light", "IMG|DIR|@LIST ... [-m MODEL] (-o OUT | --json) [--preview SPHERE.png] [--aligned]",
-        "Writes the light the model estimates for the face in a photo (the best-scoring face, aligned\n"
-        "first) or, with --aligned, for an aligned face texture (docs/spec.md section 2): 9 spherical-harmonics\n"
-        "coefficients in DPR's order and scale, loadable by `hdnet relight --light`. Many inputs (files,\n"
+        "Writes the face's own light, as the relighting rule takes it, for the face in a photo (the\n"
+        "best-scoring face, aligned first) or, with --aligned, for an aligned face texture (docs/spec.md\n"
+        "section 2): 9 spherical-harmonics coefficients in DPR's order and scale, loadable by `hdnet\n"
+        "relight --light`. By default (--source-light fit) the least-squares light of the predicted shading\n"
+        "on the predicted normals over the face's skin, pulled a little toward L-Net's estimate; with\n"
+        "--source-light lnet L-Net's estimate itself (what decompose writes). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and write\n"
         "OUT/REL/NAME.light.txt; a photo that cannot be read or has no face is reported and skipped, and\n"
         "the exit status is then 1. --json prints every light and the summary on stdout.",
@@ -101,9 +111,10 @@ int cmd_estimate_light(int argc, char **argv)
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     cli_inputs in = {0};
-    estimate_run run = {preview, size, aligned, min_score, NULL, NULL, NULL};
+    estimate_run run = {preview, size, aligned, min_score, HD_SOURCE_FIT, NULL, NULL, NULL};
     int rc = CLI_EXIT_USAGE;
     if ((code = cli_opts_common(&spec, threads, min_score))) goto done;
+    if (source && (code = cli_source_light_parse(&spec, source, &run.source))) goto done;
     if (!out && !json) {
         cli_usage_error(&spec, "-o is required (or --json)");
         goto done;

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <math.h>
 #include <string.h>
+#include "apply_cli.h"
 #include "cli.h"
 #include "hdnet_tool.h"
 
@@ -49,11 +50,16 @@ static void print_table(const hd_eval_report *r)
 static const char *const PHOTO_TARGETS[HD_PHOTO_METRICS] = {"<= 10", ">= 0.95", "0.9..1.1", "<= 1.5",
                                                            "<= 0.01", "<= 0.05", "0.97..1.03"};
 
-static int print_photo_table(const hd_photo_eval *ev, const char *rule)
+static int print_photo_table(const hd_photo_eval *ev, const hd_photo_rule *how)
 {
     int held = 0;
     for (int i = 0; i < ev->count; i++) held += ev->rows[i].heldout;
-    printf("%d photos (%d held out, %d skipped), rule %s; medians over photos\n\n", ev->count, held, ev->skipped, rule);
+    printf("%d photos (%d held out, %d skipped), rule %s", ev->count, held, ev->skipped,
+           how->rule == HD_RULE_PAPER ? "paper" : "ratio");
+    if (how->rule == HD_RULE_RATIO)
+        printf(" (source light %s, guard %g)", how->source == HD_SOURCE_LNET ? "lnet" : "fit",
+               how->guard > 0 ? how->guard : HD_RATIO_GUARD);
+    printf("; medians over photos\n\n");
     printf("%-8s %-10s %9s %9s %9s   %s\n", "metric", "target", "all", "tuning", "held-out", "worst photo (all)");
     for (int m = 0; m < HD_PHOTO_METRICS; m++) {
         double med[3];
@@ -121,10 +127,9 @@ static int emit_json(const json_out *j, char *text, hd_status written)
     return rc;
 }
 
-static int photo_eval(const char *data, const char *model_path, const char *rule_name, const char *heldout, int limit,
-                      const json_out *json)
+static int photo_eval(const char *data, const char *model_path, const hd_photo_rule *how, const char *heldout,
+                      int limit, const json_out *json)
 {
-    hd_relight_rule rule = strcmp(rule_name, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO;
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
     if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
@@ -132,29 +137,30 @@ static int photo_eval(const char *data, const char *model_path, const char *rule
         return cli_report("eval");
     }
     hd_photo_eval ev;
-    hd_status st = hd_photo_eval_run(data, model, aligner, rule, heldout, limit, &ev, warn);
+    hd_status st = hd_photo_eval_run(data, model, aligner, how, heldout, limit, &ev, warn);
     hd_model_free(model);
     hd_aligner_free(aligner);
     if (st != HD_OK) return cli_report("eval");
-    int rc = json->print ? CLI_EXIT_OK : print_photo_table(&ev, rule_name);
+    int rc = json->print ? CLI_EXIT_OK : print_photo_table(&ev, how);
     if (rc == CLI_EXIT_OK && (json->print || json->out))
-        rc = emit_json(json, hd_photo_eval_json(&ev, rule_name),
-                       json->out ? hd_photo_eval_write_json(json->out, &ev, rule_name) : HD_OK);
+        rc = emit_json(json, hd_photo_eval_json(&ev, how), json->out ? hd_photo_eval_write_json(json->out, &ev, how) : HD_OK);
     hd_photo_eval_free(&ev);
     return rc;
 }
 
-static int pair_eval(const char *data, const char *model_path, const json_out *json)
+static int pair_eval(const char *data, const char *model_path, const hd_photo_rule *how, const json_out *json)
 {
     hd_model *model = NULL;
     if (hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
     hd_pair_report rep;
-    hd_status st = hd_pair_eval_run(data, model, &rep, warn);
+    hd_status st = hd_pair_eval_run(data, model, how, &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
     if (!json->print) {
-        printf("%ld pairs (%ld skipped): image i relit under the true light of image j, against image j\n\n",
-               rep.pairs, rep.skipped);
+        printf("%ld pairs (%ld skipped): image i relit under the true light of image j, against image j\n"
+               "(the model's ratio rule from source light %s; guard %g)\n\n",
+               rep.pairs, rep.skipped, how->source == HD_SOURCE_LNET ? "lnet" : "fit",
+               how->guard > 0 ? how->guard : HD_RATIO_GUARD);
         printf("%-28s %8s %8s %8s %8s\n", "method", "MAE", "RMSE", "PSNR dB", "SSIM");
         for (int k = 0; k < HD_PAIR_ROWS; k++)
             printf("%-28s %8.4f %8.4f %8.2f %8.4f\n", rep.rows[k].name, rep.rows[k].mae, rep.rows[k].rmse,
@@ -168,7 +174,9 @@ static int pair_eval(const char *data, const char *model_path, const json_out *j
 int cmd_eval(int argc, char **argv)
 {
     const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
+    const char *source = NULL;
     int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0;
+    float guard = 0.0f;
     const cli_opt opts[] = {
         {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
          "score this model (safetensors) on the set's images (default: the shipped hdnet-synth model)"},
@@ -184,6 +192,10 @@ int cmd_eval(int argc, char **argv)
         {"limit", 0, CLI_OPT_INT, &limit, "N", "with --photos: only the first N people"},
         {"sheets", 0, CLI_OPT_STRING, &sheets, "OUT",
          "with --photos: instead of scores, a before / after sheet per photo into folder OUT"},
+        CLI_OPT_SOURCE_LIGHT_ROW(source),
+        {"guard", 0, CLI_OPT_FLOAT, &guard, "G",
+         "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "
+         "(default 0: the built-in value, docs/usage.md)"},
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
@@ -219,9 +231,14 @@ int cmd_eval(int argc, char **argv)
     if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
     if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     if (photos && pairs) return cli_usage_error(&spec, "--photos and --pairs exclude each other");
+    hd_photo_rule how = {strcmp(rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, guard};
+    if (source && cli_source_light_parse(&spec, source, &how.source)) return CLI_EXIT_USAGE;
+    if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
+    if ((source || guard > 0) && !photos && !pairs)
+        return cli_usage_error(&spec, "--source-light and --guard go with --photos or --pairs");
     if (pairs) {
         if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
-        return pair_eval(data, model_path, &jo);
+        return pair_eval(data, model_path, &how, &jo);
     }
     if (photos) {
         if (pred) return cli_usage_error(&spec, "--photos relights with a model: --pred does not go with it");
@@ -229,7 +246,7 @@ int cmd_eval(int argc, char **argv)
             return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
         if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
         if (sheets) return photo_sheets(data, model_path, sheets);
-        return photo_eval(data, model_path, rule, heldout, limit, &jo);
+        return photo_eval(data, model_path, &how, heldout, limit, &jo);
     }
     if (heldout || limit || sheets || strcmp(rule, "ratio") != 0)
         return cli_usage_error(&spec, "--rule, --heldout, --limit and --sheets go with --photos");

@@ -72,7 +72,7 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
 int cmd_relight(int argc, char **argv)
 {
     const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
-    const char *sheet_path = NULL, *env_path = NULL;
+    const char *sheet_path = NULL, *env_path = NULL, *source = NULL;
     cli_opt_floats dir = {.max = 2}, colour = {.max = 3};
     float intensity = NAN, ambient = NAN, rotate = 0.0f, min_score = cli_min_score_default();
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
@@ -104,6 +104,7 @@ int cmd_relight(int argc, char **argv)
         {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png",
          "also write a contact sheet: input | delit | relit ... (one input only)"},
         CLI_OPT_ALIGNED_ROW(aligned),
+        CLI_OPT_SOURCE_LIGHT_ROW(source),
         CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
@@ -209,8 +210,11 @@ int cmd_relight(int argc, char **argv)
                                 (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
                 goto done;
             }
+    if (source && cli_source_light_parse(&spec, source, &run.apply.request.source)) goto done;
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
+        if (run.apply.request.source != HD_SOURCE_FIT)
+            cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
+        else if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
             cli_usage_error(&spec, "a clip takes one light, grey (no --preset all, no --sheet, no colour)");
         else rc = cli_video("relight", pos[0], out, model_path, lights[0].sh[0], NULL,
                                no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);

@@ -25,7 +25,7 @@ static hd_status transfer_one(void *ctx, const cli_input *in, const char *out, i
 
 int cmd_transfer(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL, *source = NULL;
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
     cli_clip clip = {0};
     float min_score = cli_min_score_default();
@@ -41,6 +41,7 @@ int cmd_transfer(int argc, char **argv)
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
+        CLI_OPT_SOURCE_LIGHT_ROW(source),
         CLI_OPT_CLIP_ROWS(clip),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
@@ -49,7 +50,8 @@ int cmd_transfer(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",
-        "Estimates the light of the reference REF with the model (a photo: its best-scoring face) and\n"
+        "Estimates the light of the reference REF with the model (a photo: its best-scoring face; the\n"
+        "face's own light of --source-light, as `hdnet estimate-light` writes it) and\n"
         "relights IMG under it by the rule of `hdnet relight`: every face of a photo, or\n"
         "an aligned face texture with --aligned (masked-out pixels keep the input). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and the reference's\n"
@@ -66,7 +68,16 @@ int cmd_transfer(int argc, char **argv)
         free(pos);
         return code;
     }
+    hd_source_light src = HD_SOURCE_FIT;
+    if (source && (code = cli_source_light_parse(&spec, source, &src))) {
+        free(pos);
+        return code;
+    }
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
+        if (src != HD_SOURCE_FIT) {
+            free(pos);
+            return cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
+        }
         code = cli_video("transfer", pos[0], out, model_path, NULL, ref_path,
                             no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
         free(pos);
@@ -75,7 +86,8 @@ int cmd_transfer(int argc, char **argv)
     float light[HD_SH_COEFFS];
     hd_light_rgb rgb;
     /* the mask note of photos is printed once below, before the run */
-    cli_apply_run run = {"transfer", {&rgb, 1, 0, 0, HD_RULE_RATIO, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP},
+    cli_apply_run run = {"transfer", {&rgb, 1, 0, 0, HD_RULE_RATIO, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP,
+                                     src, 0.0f},
                          mask_path, aligned, 1, min_score, NULL, NULL};
     int single = 0;
     if ((code = cli_output_mode(&spec, pos, npos, out, NULL, &single))) {
@@ -84,7 +96,7 @@ int cmd_transfer(int argc, char **argv)
     }
     const int ref_photo = !aligned && hd_input_kind_of(ref_path) == HD_INPUT_PHOTO;
     cli_inputs in = {0};
-    hd_image ref = {0};
+    hd_image ref = {0}, ref_mask = {0};
     int rc = CLI_EXIT_FAIL, nfaces = 0;
     /* one model and aligner for the reference and every input */
     int photos = 0;
@@ -96,8 +108,11 @@ int cmd_transfer(int argc, char **argv)
         goto done;
     }
     hd_aligner_set_min_score(run.aligner, min_score);
-    st = ref_photo ? hd_estimate_light_photo(run.model, run.aligner, &ref, light, &nfaces)
-                   : hd_estimate_light(run.model, &ref, light);
+    /* an aligned reference's light is fitted over its companion mask (none: the whole texture) */
+    if (!ref_photo) st = hd_face_mask_read(ref_path, NULL, ref.width, ref.height, &ref_mask, NULL);
+    if (st == HD_OK)
+        st = ref_photo ? hd_estimate_face_light_photo(run.model, run.aligner, &ref, src, light, &nfaces)
+                       : hd_estimate_face_light(run.model, &ref, &ref_mask, src, light);
     if (st != HD_OK) {
         rc = ref_photo ? cli_report_photo("transfer", st, ref_path) : cli_report("transfer");
         goto done;
@@ -110,6 +125,7 @@ int cmd_transfer(int argc, char **argv)
     rc = cli_batch_run("transfer", "relit", &in, out, single, quiet, transfer_one, &run, NULL);
 done:
     hd_image_free(&ref);
+    hd_image_free(&ref_mask);
     if (run.model) hd_model_free(run.model);
     hd_aligner_free(run.aligner);
     cli_inputs_free(&in);

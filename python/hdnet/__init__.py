@@ -292,7 +292,9 @@ class Model:
             _decomposition_free(ctypes.byref(d))
 
     def estimate_light(self, img, aligned=False):
-        """The 9 SH coefficients the model estimates for the face (the best face of a photo)."""
+        """The face's own light, 9 SH coefficients (the best face of a photo): the least-squares light of
+        the predicted shading on the predicted normals over the skin, pulled toward L-Net's estimate
+        (decompose's light), as `hdnet estimate-light` writes it and the relighting rule uses it."""
         im, keep = _to_image(img)
         light = _light_t()
         if aligned:

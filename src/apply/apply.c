@@ -13,7 +13,7 @@
 #include "apply/apply.h"
 
 /* Feather bands: in a texture, a share of its side; in a photo, a share of the eye distance. */
-#define FEATHER_TEXTURE 0.04f
+#define FEATHER_TEXTURE 0.01f
 #define FEATHER_PHOTO 0.30f
 
 void hd_apply_result_free(hd_apply_result *r)
@@ -74,6 +74,12 @@ typedef struct job {
     hd_image *out;
 } job;
 
+/* What the ratio rule takes of a face besides its normals: its own light and the guard. */
+typedef struct face_rule {
+    float source[HD_SH_COEFFS];
+    float guard;
+} face_rule;
+
 static int jobs_of(const hd_apply_request *q, hd_apply_result *r, const float own[HD_SH_COEFFS], job *jobs)
 {
     int n = 0;
@@ -91,7 +97,7 @@ static int jobs_of(const hd_apply_request *q, hd_apply_result *r, const float ow
 
 /* One job on a texture (out is the texture's copy): the rule, feathered inside the mask. */
 static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, const hd_image *mask,
-                             const float *feather, hd_relight_rule rule, const job *jb)
+                             const float *feather, hd_relight_rule rule, const face_rule *fr, const job *jb)
 {
     if (rule == HD_RULE_PAPER) {
         hd_image out = {0};
@@ -104,7 +110,7 @@ static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, con
     }
     const int W = tex->width, H = tex->height, side = W > H ? W : H;
     hd_image field = {0}, sized = {0};
-    hd_status st = hd_ratio_field(d, mask, side, d->light, jb->target, &field);
+    hd_status st = hd_ratio_field(d, mask, side, fr->source, fr->guard, jb->target, &field);
     if (st == HD_OK && (W != side || H != side)) {
         st = hd_image_resize(&field, W, H, &sized);
         hd_image_free(&field);
@@ -153,15 +159,17 @@ hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition
         hd_apply_result_free(r);
         return st;
     }
+    face_rule fr = {{0}, q->guard};
     r->face_light = hd_malloc(sizeof *r->face_light);
     if (!r->face_light) st = HD_ERR_NOMEM;
-    else memcpy(r->face_light[0], d->light, sizeof d->light);
+    else if ((st = hd_face_light(d, mask, q->source, fr.source)) == HD_OK)
+        memcpy(r->face_light[0], fr.source, sizeof fr.source);
     float *feather = NULL;
     if (st == HD_OK && q->rule == HD_RULE_RATIO) st = texture_feather(texture, mask, &feather);
     job *jobs = hd_malloc((size_t)(q->count + 2) * sizeof *jobs);
     if (!jobs && st == HD_OK) st = HD_ERR_NOMEM;
-    int n = st == HD_OK ? jobs_of(q, r, d->light, jobs) : 0;
-    for (int k = 0; k < n && st == HD_OK; k++) st = texture_job(texture, d, mask, feather, q->rule, &jobs[k]);
+    int n = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
+    for (int k = 0; k < n && st == HD_OK; k++) st = texture_job(texture, d, mask, feather, q->rule, &fr, &jobs[k]);
     free(jobs);
     free(feather);
     if (st != HD_OK) {
@@ -199,7 +207,7 @@ static hd_status photo_feather(const hd_aligned_face *f, const hd_image *coverag
 
 /* One job on face f of a photo (out is the photo's copy, with earlier faces already changed). */
 static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, const float *feather,
-                           hd_relight_rule rule, const job *jb)
+                           hd_relight_rule rule, const face_rule *fr, const job *jb)
 {
     hd_image tex_out = {0}, field = {0}, warped = {0}, coverage = {0};
     hd_status st;
@@ -209,7 +217,7 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
         hd_image_free(&tex_out);
         return st;
     }
-    st = hd_ratio_field(d, &f->mask, f->texture.width, d->light, jb->target, &field);
+    st = hd_ratio_field(d, &f->mask, f->texture.width, fr->source, fr->guard, jb->target, &field);
     if (st == HD_OK) st = hd_warp_back(f, &field, NULL, &warped, &coverage);
     if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out);
     hd_image_free(&field);
@@ -230,7 +238,7 @@ static hd_status face_feather(const hd_aligned_face *f, float *feather)
 }
 
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_image *photo)
+                        hd_brightness brightness, hd_source_light source, hd_image *photo)
 {
     if (!f || !d || !photo || !photo->data || photo->channels != 3)
         return hd_fail(HD_ERR_ARG, "relight: a face, its decomposition and a 3-channel photo are needed");
@@ -238,8 +246,10 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     float *feather = hd_malloc((P ? P : 1) * sizeof(float));
     if (!feather) return HD_ERR_NOMEM;
     job jb = {target, {{{0}}}, brightness, photo};
-    hd_status st = face_feather(f, feather);
-    if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &jb);
+    face_rule fr = {{0}, 0.0f};
+    hd_status st = hd_face_light(d, &f->mask, source, fr.source);
+    if (st == HD_OK) st = face_feather(f, feather);
+    if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &fr, &jb);
     free(feather);
     return st;
 }
@@ -269,11 +279,13 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         const hd_aligned_face *f = &faces[k];
         hd_decomposition d;
         memset(&d, 0, sizeof d);
+        face_rule fr = {{0}, q->guard};
         st = hd_model_decompose(model, &f->texture, 1, &d);
-        if (st == HD_OK) memcpy(r->face_light[k], d.light, sizeof d.light);
+        if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
+        if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
         if (st == HD_OK && feather) st = face_feather(f, feather);
-        int m = st == HD_OK ? jobs_of(q, r, d.light, jobs) : 0;
-        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &jobs[i]);
+        int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
+        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &fr, &jobs[i]);
         hd_decomposition_free(&d);
     }
     free(jobs);

@@ -26,12 +26,13 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma);
  * to 1 at band pixels inside. */
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight);
 
-/* The log of the relighting ratio s(N, l_target) / s(N, l_source) (rule.c) at size x size texels:
- * `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere (the regions
- * and the texels outside mask filled from the skin, then blurred). d at the model's size; mask
- * (any size, 1 channel, may be NULL) is the face's. target NULL: flat light (delighting). */
+/* The log of the relighting ratio (s(N, l_target) + g) / (s(N, l_source) + g) (rule.c) at size x
+ * size texels: `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere
+ * (the regions and the texels outside mask filled from the skin, then blurred). d at the model's
+ * size; mask (any size, 1 channel, may be NULL) is the face's; g = guard (<= 0: HD_RATIO_GUARD)
+ * x the mean source shading over the skin. target NULL: flat light (delighting). */
 hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
-                         const hd_light_rgb *target, hd_image *log_ratio);
+                         float guard, const hd_light_rgb *target, hd_image *log_ratio);
 
 /* Applies a log-ratio field (1 or 3 planes, at the image's size) to image with feather weights w
  * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
@@ -42,10 +43,11 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
 
 /* The rule on one face of a photo already aligned (f) and decomposed (d, which may be smoothed, as
  * a video does): photo (3 channels, the frame's size; earlier faces may be changed already) is
- * changed in place toward target (NULL: flat light, delighting), feathered from the face's edge,
- * as hd_apply_photo does for each face. */
+ * changed in place toward target (NULL: flat light, delighting), from the face's own light
+ * (hd_face_light of d by `source`), feathered from the face's edge, as hd_apply_photo does for
+ * each face. */
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_image *photo);
+                        hd_brightness brightness, hd_source_light source, hd_image *photo);
 
 /* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,

@@ -25,24 +25,30 @@ hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image
 {
     hd_light_rgb l;
     hd_light_rgb_from_grey(light, &l);
-    hd_apply_request q = {&l, 1, 0, 0, HD_RULE_RATIO, brightness};
+    hd_apply_request q = {&l, 1, 0, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f};
     return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out)
 {
-    hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP};
+    hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
     return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
-hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS])
+hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const hd_image *mask, hd_source_light source,
+                                 float light[HD_SH_COEFFS])
 {
     hd_decomposition d;
     memset(&d, 0, sizeof d);
     hd_status st = hd_model_decompose(model, image, 1, &d);
-    if (st == HD_OK) memcpy(light, d.light, sizeof d.light);
+    if (st == HD_OK) st = hd_face_light(&d, mask, source, light);
     hd_decomposition_free(&d);
     return st;
+}
+
+hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS])
+{
+    return hd_estimate_face_light(model, image, NULL, HD_SOURCE_FIT, light);
 }
 
 /* Transfer decomposes the two faces one at a time (not as a batch of two) so that its result is
@@ -67,7 +73,7 @@ hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image 
     hd_light_rgb *l = hd_malloc((size_t)(count > 0 ? count : 1) * sizeof *l);
     if (!l) return HD_ERR_NOMEM;
     for (int i = 0; i < count; i++) hd_light_rgb_from_grey(lights[i], &l[i]);
-    hd_apply_request q = {l, count, delit != NULL, 0, HD_RULE_RATIO, brightness};
+    hd_apply_request q = {l, count, delit != NULL, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f};
     hd_apply_result r;
     hd_status st = hd_apply_photo(model, aligner, photo, &q, &r);
     free(l);

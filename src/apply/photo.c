@@ -38,17 +38,23 @@ hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_im
     return st;
 }
 
-hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
-                                  float light[HD_SH_COEFFS], int *nfaces)
+hd_status hd_estimate_face_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                                       hd_source_light source, float light[HD_SH_COEFFS], int *nfaces)
 {
     if (nfaces) *nfaces = 0;
     hd_aligned_face *faces = NULL;
     int n = 0;
     hd_status st = hd_photo_faces(aligner, model, photo, &faces, &n);
-    if (st == HD_OK) st = hd_estimate_light(model, &faces[0].texture, light);
+    if (st == HD_OK) st = hd_estimate_face_light(model, &faces[0].texture, &faces[0].mask, source, light);
     hd_aligned_faces_free(faces, n);
     if (st == HD_OK && nfaces) *nfaces = n;
     return st;
+}
+
+hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
+                                  float light[HD_SH_COEFFS], int *nfaces)
+{
+    return hd_estimate_face_light_photo(model, aligner, photo, HD_SOURCE_FIT, light, nfaces);
 }
 
 void hd_photo_maps_free(hd_photo_maps *m)

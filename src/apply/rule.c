@@ -1,8 +1,9 @@
 /* rule.c: the relighting rule (docs/usage.md, "The relighting rule"). A face is relit by a change
  * of shading, never by dividing the photo by the network's shading:
  *     out = I * r,   r = (s(N, l_target) + g) / (s(N, l_source) + g)
- * with N the predicted normals, l_source the face's estimated light (L-Net's) and g a guard (a
- * tenth of the face's mean source shading) where the denominator is small. r is exactly 1 when the
+ * with N the predicted normals, l_source the face's own light (hd_face_light: the least-squares
+ * light of the predicted shading on N over the skin, or L-Net's) and g a guard (a share of the
+ * face's mean source shading, HD_RATIO_GUARD by default) where the denominator is small. r is exactly 1 when the
  * light does not change, is one factor for all three channels under a grey light, and is smooth
  * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
  * the inside of the mouth, brows: regions.c) and outside the face's mask, log r is filled from the
@@ -14,8 +15,6 @@
 #include "core/core.h"
 #include "apply/apply.h"
 
-/* g = RATIO_GUARD x the mean source shading over the face */
-#define RATIO_GUARD 0.1f
 /* the blur of log r, a share of the texture side */
 #define RATIO_BLUR 0.012f
 
@@ -36,8 +35,46 @@ static hd_status normals_at(const hd_decomposition *d, int size, hd_image *out)
     return HD_OK;
 }
 
+/* The skin at size x size: 1 where mask (NULL: everywhere) is > 0.5 outside the face regions. */
+static hd_status skin_at(const hd_image *mask, int size, hd_image *skin)
+{
+    hd_image m = {0};
+    hd_status st = mask ? hd_image_resize(mask, size, size, &m) : HD_OK;
+    if (st == HD_OK) st = hd_face_regions_uv(size, skin);
+    for (size_t p = 0; st == HD_OK && p < (size_t)size * size; p++)
+        skin->data[p] = (!m.data || m.data[p] > 0.5f) && skin->data[p] <= 0.5f ? 1.0f : 0.0f;
+    hd_image_free(&m);
+    if (st != HD_OK) hd_image_free(skin);
+    return st;
+}
+
+hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
+                        float light[HD_SH_COEFFS])
+{
+    memset(light, 0, HD_SH_COEFFS * sizeof *light);
+    if (!d) return hd_fail(HD_ERR_ARG, "face light: no decomposition");
+    if (source == HD_SOURCE_LNET) {
+        memcpy(light, d->light, sizeof d->light);
+        return HD_OK;
+    }
+    if (source != HD_SOURCE_FIT) return hd_fail(HD_ERR_ARG, "face light: unknown source %d", (int)source);
+    const int size = d->shading.width;
+    if (!d->shading.data || d->shading.channels != 1 || d->shading.height != size || !d->normal.data ||
+        d->normal.channels != 3 || d->normal.width != size || d->normal.height != size)
+        return hd_fail(HD_ERR_ARG,
+                       "face light: the decomposition's shading and normals are not square maps of one size");
+    if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "face light: a mask has 1 channel");
+    hd_image skin = {0};
+    hd_status st = skin_at(mask, size, &skin);
+    if (st == HD_OK)
+        st = hd_sh_fit_toward(d->normal.data, d->shading.data, skin.data, size * size, d->light, HD_SOURCE_PRIOR,
+                              light);
+    hd_image_free(&skin);
+    return st;
+}
+
 hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
-                         const hd_light_rgb *target, hd_image *log_ratio)
+                         float guard, const hd_light_rgb *target, hd_image *log_ratio)
 {
     memset(log_ratio, 0, sizeof *log_ratio);
     if (!d || !d->normal.data || d->normal.channels != 3)
@@ -52,22 +89,21 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
                 if (!isfinite(target->sh[c][k]))
                     return hd_fail(HD_ERR_NUMERIC, "relight: light coefficient %d of channel %d is not finite", k, c);
     const size_t P = (size_t)size * size;
-    hd_image n = {0}, m = {0}, regions = {0}, src = {0};
+    hd_image n = {0}, skin = {0}, src = {0};
     hd_status st = normals_at(d, size, &n);
-    if (st == HD_OK && mask) st = hd_image_resize(mask, size, size, &m);
-    if (st == HD_OK) st = hd_face_regions_uv(size, &regions);
+    if (st == HD_OK) st = skin_at(mask, size, &skin);
     if (st == HD_OK) st = hd_image_alloc(&src, size, size, 1);
     if (st == HD_OK) st = hd_image_alloc(log_ratio, size, size, channels);
-    float *known = regions.data; /* reused: 1 where log r is the model's, 0 where it is filled */
+    const float *known = skin.data; /* 1 where log r is the model's, 0 where it is filled */
     if (st == HD_OK) {
         hd_sh_shading_map(n.data, NULL, (int)P, source, src.data);
         double mean = 0, count = 0;
         for (size_t p = 0; p < P; p++) {
-            known[p] = (!m.data || m.data[p] > 0.5f) && regions.data[p] <= 0.5f ? 1.0f : 0.0f;
             if (src.data[p] < 0) src.data[p] = 0;
             if (known[p] > 0) mean += src.data[p], count++;
         }
-        const float g = RATIO_GUARD * (count > 0 && mean > 0 ? (float)(mean / count) : 1.0f);
+        const float share = guard > 0 && isfinite(guard) ? guard : HD_RATIO_GUARD;
+        const float g = share * (count > 0 && mean > 0 ? (float)(mean / count) : 1.0f);
         for (int c = 0; c < channels && st == HD_OK; c++) {
             float *lr = log_ratio->data + (size_t)c * P;
             if (target) hd_sh_shading_map(n.data, NULL, (int)P, target->sh[c], lr);
@@ -81,8 +117,7 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
         }
     }
     hd_image_free(&n);
-    hd_image_free(&m);
-    hd_image_free(&regions);
+    hd_image_free(&skin);
     hd_image_free(&src);
     if (st != HD_OK) hd_image_free(log_ratio);
     return st;

@@ -143,7 +143,7 @@ static hd_status pair_mask(const side *a, const side *b, hd_image *m)
 }
 
 /* One pair i -> j: every row's relit picture, scored against j. */
-static hd_status score_pair(hd_model *model, const side *a, const side *b, hd_pair_row *rows)
+static hd_status score_pair(hd_model *model, const side *a, const side *b, const hd_photo_rule *how, hd_pair_row *rows)
 {
     hd_image m = {0}, exact = {0}, out = {0};
     hd_decomposition d, truth;
@@ -153,7 +153,7 @@ static hd_status score_pair(hd_model *model, const side *a, const side *b, hd_pa
     const size_t P = (size_t)a->input.width * a->input.height;
     hd_light_rgb target;
     hd_light_rgb_from_grey(b->light, &target);
-    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE};
+    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_LNET, how->guard};
     hd_apply_result r;
     if (st == HD_OK) add_errors(&rows[HD_PAIR_INPUT], &a->input, &b->input, m.data);
     /* exact decomposition: A_i s(N_i, l_j) */
@@ -178,6 +178,7 @@ static hd_status score_pair(hd_model *model, const side *a, const side *b, hd_pa
             hd_apply_result_free(&r);
         }
     }
+    q.source = how->source; /* the model's rows: the face's own light as the tool takes it */
     if (st == HD_OK) st = hd_model_decompose(model, &a->input, 1, &d);
     if (st == HD_OK) st = hd_apply_decomposition(&a->input, &d, &a->mask, &q, &r);
     if (st == HD_OK) {
@@ -193,7 +194,8 @@ static hd_status score_pair(hd_model *model, const side *a, const side *b, hd_pa
     return st;
 }
 
-hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *rep, void (*warn)(const char *message))
+hd_status hd_pair_eval_run(const char *dir, hd_model *model, const hd_photo_rule *how, hd_pair_report *rep,
+                           void (*warn)(const char *message))
 {
     memset(rep, 0, sizeof *rep);
     for (int k = 0; k < HD_PAIR_ROWS; k++) snprintf(rep->rows[k].name, sizeof rep->rows[k].name, "%s", ROW_NAMES[k]);
@@ -209,7 +211,7 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, hd_pair_report *rep
             if (e == HD_OK) {
                 e = side_load(&ds.samples[j], &b);
                 if (e == HD_OK) {
-                    e = score_pair(model, &a, &b, rep->rows);
+                    e = score_pair(model, &a, &b, how, rep->rows);
                     side_free(&b);
                 }
                 side_free(&a);

@@ -103,7 +103,7 @@ static hd_status score_relit(const hd_image *input, const hd_image *relit, const
 }
 
 /* One photo: relit under the presets and its own light; scores into row; its light into light. */
-static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_sample *s, hd_relight_rule rule,
+static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_sample *s, const hd_photo_rule *how,
                              hd_photo_row *row, float light[HD_SH_COEFFS])
 {
     hd_image photo = {0};
@@ -115,7 +115,7 @@ static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_samp
         hd_light_preset(k, l);
         hd_light_rgb_from_grey(l, &presets[k]);
     }
-    hd_apply_request q = {presets, HD_LIGHT_PRESETS, 0, 1, rule, HD_BRIGHTNESS_KEEP};
+    hd_apply_request q = {presets, HD_LIGHT_PRESETS, 0, 1, how->rule, HD_BRIGHTNESS_KEEP, how->source, how->guard};
     hd_apply_result r;
     st = hd_apply_photo(model, aligner, &photo, &q, &r);
     if (st != HD_OK) {
@@ -142,7 +142,7 @@ static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_samp
     return st;
 }
 
-hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, hd_relight_rule rule,
+hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_photo_rule *how,
                             const char *heldout_path, int limit, hd_photo_eval *ev, void (*warn)(const char *message))
 {
     memset(ev, 0, sizeof *ev);
@@ -164,7 +164,7 @@ hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligne
             snprintf(row->name, sizeof row->name, "%s/%s", s->subject, s->name);
             row->heldout = listed(ids, nids, s->subject);
             float light[HD_SH_COEFFS];
-            hd_status e = score_photo(model, aligner, s, rule, row, light);
+            hd_status e = score_photo(model, aligner, s, how, row, light);
             if (e == HD_ERR_NOMEM) st = e;
             if (e != HD_OK) {
                 ev->skipped++;
@@ -224,11 +224,13 @@ hd_status hd_photo_eval_summary(const hd_photo_eval *ev, int group, int metric, 
 
 static const char *const GROUP_NAMES[3] = {"all", "tuning", "heldout"};
 
-char *hd_photo_eval_json(const hd_photo_eval *ev, const char *rule)
+char *hd_photo_eval_json(const hd_photo_eval *ev, const hd_photo_rule *how)
 {
     cJSON *root = cJSON_CreateObject();
     if (!root) return hd_fail(HD_ERR_NOMEM, "out of memory building the JSON report"), NULL;
-    cJSON_AddStringToObject(root, "rule", rule);
+    cJSON_AddStringToObject(root, "rule", how->rule == HD_RULE_PAPER ? "paper" : "ratio");
+    cJSON_AddStringToObject(root, "source_light", how->source == HD_SOURCE_LNET ? "lnet" : "fit");
+    cJSON_AddNumberToObject(root, "guard", how->guard > 0 ? how->guard : HD_RATIO_GUARD);
     cJSON_AddNumberToObject(root, "photos", ev->count);
     cJSON_AddNumberToObject(root, "skipped", ev->skipped);
     hd_status st = HD_OK;
@@ -265,7 +267,7 @@ char *hd_photo_eval_json(const hd_photo_eval *ev, const char *rule)
     return text;
 }
 
-hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, const char *rule)
+hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *ev, const hd_photo_rule *how)
 {
-    return hd_eval_json_write(path, hd_photo_eval_json(ev, rule));
+    return hd_eval_json_write(path, hd_photo_eval_json(ev, how));
 }

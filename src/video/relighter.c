@@ -199,7 +199,8 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
             memcpy(info->light, d.light, sizeof info->light);
         }
         if (st == HD_OK) /* the photo's rule on the (smoothed) decomposition */
-            st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness, out);
+            st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness,
+                               HD_SOURCE_FIT, out);
         hd_decomposition_free(&d);
         if (st == HD_OK) done++;
     }

@@ -160,9 +160,10 @@ hd_status serve_photo_make(serve_engine *e, const unsigned char *data, size_t n,
                 sf->landmarks[i][0] = faces[k].landmarks[i][0];
                 sf->landmarks[i][1] = faces[k].landmarks[i][1];
             }
-            memcpy(sf->light, ds[k].light, sizeof sf->light);
         }
-        st = make_maps(p, faces, ds);
+        /* the face's own light, as the ratio rule takes it (the page's live preview divides by it) */
+        for (int k = 0; k < nfaces && st == HD_OK; k++) st = hd_face_light(&ds[k], &faces[k].mask, HD_SOURCE_FIT, p->faces[k].light);
+        if (st == HD_OK) st = make_maps(p, faces, ds);
     }
     for (int k = 0; ds && k < nfaces; k++) hd_decomposition_free(&ds[k]);
     free(ds);
