@@ -90,6 +90,24 @@ static void test_canonical(void)
 
 /* A fan of 8 triangles around the texel centre (0.5, 0.5) of a 4x4 grid whose edges pass through
  * texel centres: every centre of the square is covered exactly once, by the expected rule. */
+/* The texels covered when each triangle of m is rasterised alone, summed over the triangles. */
+static int covered_one_by_one(const hd_mesh *m, int size)
+{
+    int sum = 0;
+    for (int t = 0; t < m->nt; t++) {
+        hd_mesh one = *m;
+        hd_uv_raster r;
+        one.nt = 1;
+        one.tri = m->tri + 3 * t;
+        hd_status st = hd_mesh_uv_raster(&one, size, &r);
+        CHECK(st == HD_OK);
+        if (st != HD_OK) return -1;
+        for (int i = 0; i < size * size; i++) sum += r.tri[i] >= 0;
+        hd_uv_raster_free(&r);
+    }
+    return sum;
+}
+
 static void test_raster_edges(void)
 {
     write_text("fan.obj",
@@ -119,16 +137,7 @@ static void test_raster_edges(void)
         if (count != expect) fprintf(stderr, "size %d: %d texels covered, expected %d\n", size, count, expect);
         hd_uv_raster_free(&r);
         /* each triangle rasterised alone: the counts add up to the whole (no texel owned twice) */
-        int sum = 0;
-        for (int t = 0; t < m.nt; t++) {
-            hd_mesh one = m;
-            one.nt = 1;
-            one.tri = m.tri + 3 * t;
-            CHECK(hd_mesh_uv_raster(&one, size, &r) == HD_OK);
-            for (int i = 0; i < size * size; i++) sum += r.tri[i] >= 0;
-            hd_uv_raster_free(&r);
-        }
-        CHECK(sum == expect);
+        CHECK(covered_one_by_one(&m, size) == expect);
     }
     hd_mesh_free(&m);
     /* Four triangles meeting at a texel centre, whatever the orientation of the input: the
@@ -146,16 +155,7 @@ static void test_raster_edges(void)
     CHECK(count == 49);
     CHECK(r.tri[4 * 8 + 4] >= 0); /* the shared vertex itself */
     hd_uv_raster_free(&r);
-    int sum = 0;
-    for (int t = 0; t < m.nt; t++) {
-        hd_mesh one = m;
-        one.nt = 1;
-        one.tri = m.tri + 3 * t;
-        CHECK(hd_mesh_uv_raster(&one, 8, &r) == HD_OK);
-        for (int i = 0; i < 64; i++) sum += r.tri[i] >= 0;
-        hd_uv_raster_free(&r);
-    }
-    CHECK(sum == 49);
+    CHECK(covered_one_by_one(&m, 8) == 49);
     hd_mesh_free(&m);
 }
 
