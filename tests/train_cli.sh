@@ -97,6 +97,15 @@ expect 0 $H train data -o imgrun $T --iters 2 --every 2 --light-target image
 head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column: $(head -1 run/loss.csv)"
 expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
 awk -F, 'NR == 2 { exit !($11 > 0) }' run/loss.csv || fail "shading_mean should be on by default"
+# the shading prior: a tenth column, on by default: weight 0 changes the first step's total only
+head -1 run/loss.csv | grep -q ",shading_prior,disc," || fail "no shading_prior column: $(head -1 run/loss.csv)"
+awk -F, 'NR == 2 { exit !($12 > 0) }' run/loss.csv || fail "the shading prior's value should be positive"
+expect 0 $H train data -o noprior $T --iters 2 --every 2 --w-shading-prior 0
+[ "$(sed -n 2p noprior/loss.csv | cut -d, -f3-12)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-12)" ] ||
+    fail "the shading prior's weight changed the first step's terms"
+[ "$(sed -n 2p noprior/loss.csv | cut -d, -f2)" != "$(sed -n 2p run/loss.csv | cut -d, -f2)" ] ||
+    fail "the shading prior should be on by default (its weight 0 left the total unchanged)"
+expect 2 $H train data -o x $T --iters 2 --shading-prior-iters -1
 [ "$(sed -n 2p noanchor/loss.csv | cut -d, -f3-11)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-11)" ] ||
     fail "the anchor's weight changed the first step's terms"
 [ "$(sed -n 2p noanchor/loss.csv | cut -d, -f2)" != "$(sed -n 2p run/loss.csv | cut -d, -f2)" ] ||

@@ -96,7 +96,7 @@ int cmd_train(int argc, char **argv)
         {"w-shading-mean", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_MEAN], "X",
          "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
         {"w-shading-prior", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_PRIOR], "X",
-         "not the paper's: weight of the shading prior |S - s(N_bar, l_img)| (default 0)"},
+         "not the paper's: weight of the shading prior |S - s(N_bar, l_img)| (default 1; 0 turns it off)"},
         {"shading-prior-iters", 0, CLI_OPT_INT, &prior_iters, "K",
          "the shading prior's weight falls linearly to 0 over the first K iterations (default 0: constant)"},
         {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",

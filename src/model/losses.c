@@ -2,6 +2,7 @@
  * discriminator's loss. Every term is the mean over pairs of its i and j parts, so each image's
  * piece is weighted 1/P; weighted means use nn.h's loss pieces (mean_w). */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "model/losses.h"
@@ -14,8 +15,8 @@ const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "no
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 0.0f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 0.0f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 1.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 1.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -118,7 +119,11 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
             const float *Nb = batch->coarse_normal + (size_t)b * 3 * HW;
             float li[HD_SH_COEFFS];
             hd_status st = image_light(L, b, Nb, li);
-            if (st != HD_OK) return st;
+            if (st != HD_OK) {
+                char why[300];
+                snprintf(why, sizeof why, "%s", hd_error());
+                return hd_fail(st, "the shading prior's light of image %d: %s", b, why);
+            }
             hd_sh_shading_map(Nb, NULL, HW, li, L->prior + (size_t)b * HW);
             for (int p = 0; p < HW; p++)
                 if (!isfinite(L->prior[(size_t)b * HW + p]))

@@ -29,7 +29,7 @@ typedef enum hd_loss_term {
     HD_LOSS_SHADING_MEAN, /* not the paper's: the scale anchor, |mean_m S - c| per image (weight 1 in
                            * both presets; docs/training.md) */
     HD_LOSS_SHADING_PRIOR, /* not the paper's: mean_m |S - s(N_bar, l_img)|, the shading of the photo's own
-                            * light on the coarse normals (weight 0 in both presets; docs/training.md) */
+                            * light on the coarse normals (weight 1 in both presets; docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 

@@ -162,7 +162,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
         if (s != HD_OK) {
             char why[400];
             snprintf(why, sizeof why, "%s", hd_error());
-            return hd_fail(s, "loss term 'light' (its least-squares target) failed at iteration %ld: %s", t->iteration + 1, why);
+            return hd_fail(s, "the losses' least-squares targets (l_hat, the shading prior) failed at iteration %ld: %s", t->iteration + 1, why);
         }
         double terms[HD_LOSS_TERMS];
         r->total += hd_losses_generator(&t->losses, &w, terms, grad);
