@@ -138,10 +138,12 @@ static void plot_text(hd_image *img, int x, int y, const char *text, const float
  * decades labelled on the y axis (1E-2 = 0.01), iterations on the x axis, and a legend on top. */
 hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
 {
-    static const float colours[HD_TRAIN_LOG_COLS][3] = {
+    /* one colour per term in hd_loss_names order, then the total (black) and disc (brown) */
+    static const float colours[][3] = {
         {0.85f, 0.1f, 0.1f}, {0.1f, 0.6f, 0.1f}, {0.1f, 0.3f, 0.9f}, {0.9f, 0.6f, 0.0f}, {0.6f, 0.1f, 0.7f},
-        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.55f, 0.55f, 0.0f},
+        {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.55f, 0.55f, 0.0f}, {0.45f, 0.85f, 0.2f},
         {0.0f, 0.0f, 0.0f},  {0.7f, 0.4f, 0.2f}};
+    _Static_assert(sizeof colours / sizeof colours[0] == HD_TRAIN_LOG_COLS, "one plot colour per loss column");
     const float ink[3] = {0.2f, 0.2f, 0.2f}, grid[3] = {0.85f, 0.85f, 0.85f};
     /* the plot area [left, Wd - right] x [top, Ht - bottom] */
     const int Wd = 900, Ht = 460, left = 64, right = 12, top = 48, bottom = 40;
