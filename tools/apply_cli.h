@@ -36,6 +36,12 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
     {"source-light", 0, CLI_OPT_STRING, &(var), "fit|lnet",                                                            \
      "the face's own light: fit, the least-squares light of the predicted shading on the predicted normals over "      \
      "the skin (the default), or lnet, L-Net's estimate"}
+/* The rows every photo-applying command (relight, delight, transfer) ends its option table with:
+ * the source light, the clip options of video_cli.h, the detector's minimum score, threads, quiet,
+ * and the table's terminator (the file includes video_cli.h for the clip rows). */
+#define CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet)                                               \
+    CLI_OPT_SOURCE_LIGHT_ROW(source), CLI_OPT_CLIP_ROWS(clip), CLI_OPT_MIN_SCORE_ROW(min_score),                      \
+        CLI_OPT_THREADS_ROW(threads), CLI_OPT_QUIET_ROW(quiet), {NULL, 0, 0, NULL, NULL, NULL}
 /* Reads a --source-light value; a usage error (nonzero) when it is neither. */
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source);
 

@@ -35,12 +35,7 @@ int cmd_delight(int argc, char **argv)
          "folder: the output folder (OUT/NAME.delit.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         CLI_OPT_ALIGNED_ROW(aligned),
-        CLI_OPT_SOURCE_LIGHT_ROW(source),
-        CLI_OPT_CLIP_ROWS(clip),
-        CLI_OPT_MIN_SCORE_ROW(min_score),
-        CLI_OPT_THREADS_ROW(threads),
-        CLI_OPT_QUIET_ROW(quiet),
-        {NULL, 0, 0, NULL, NULL, NULL},
+        CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "delight", "IMG|DIR|@LIST ... [-m MODEL] -o OUT [--aligned [--mask M.png]]",

@@ -104,12 +104,7 @@ int cmd_relight(int argc, char **argv)
         {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png",
          "also write a contact sheet: input | delit | relit ... (one input only)"},
         CLI_OPT_ALIGNED_ROW(aligned),
-        CLI_OPT_SOURCE_LIGHT_ROW(source),
-        CLI_OPT_CLIP_ROWS(clip),
-        CLI_OPT_MIN_SCORE_ROW(min_score),
-        CLI_OPT_THREADS_ROW(threads),
-        CLI_OPT_QUIET_ROW(quiet),
-        {NULL, 0, 0, NULL, NULL, NULL},
+        CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "relight",

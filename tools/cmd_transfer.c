@@ -41,12 +41,7 @@ int cmd_transfer(int argc, char **argv)
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
-        CLI_OPT_SOURCE_LIGHT_ROW(source),
-        CLI_OPT_CLIP_ROWS(clip),
-        CLI_OPT_MIN_SCORE_ROW(min_score),
-        CLI_OPT_THREADS_ROW(threads),
-        CLI_OPT_QUIET_ROW(quiet),
-        {NULL, 0, 0, NULL, NULL, NULL},
+        CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",

@@ -1115,6 +1115,10 @@ void hd_tfjs_input_shape(const hd_tfjs_graph *g, int *height, int *width, int *c
 
 /* out (P, OC) += bias, then the activation: relu max(x, 0); relu6 min(max(x, 0), 6);
  * prelu x >= 0 ? x : alpha_c x; leaky x >= 0 ? x : a x. */
+/* The activations both the fused convolutions and the unary ops apply. */
+static inline float relu(float v) { return v > 0.0f ? v : 0.0f; }
+static inline float relu6(float v) { return v > 0.0f ? (v < 6.0f ? v : 6.0f) : 0.0f; }
+
 static void bias_act(float *out, size_t P, int OC, const float *bias, act_kind act, const float *alpha, float leaky)
 {
     for (long p = 0; p < (long)P; p++) {
@@ -1124,10 +1128,10 @@ static void bias_act(float *out, size_t P, int OC, const float *bias, act_kind a
         switch (act) {
         case ACT_NONE: break;
         case ACT_RELU:
-            for (int c = 0; c < OC; c++) o[c] = o[c] > 0.0f ? o[c] : 0.0f;
+            for (int c = 0; c < OC; c++) o[c] = relu(o[c]);
             break;
         case ACT_RELU6:
-            for (int c = 0; c < OC; c++) o[c] = o[c] > 0.0f ? (o[c] < 6.0f ? o[c] : 6.0f) : 0.0f;
+            for (int c = 0; c < OC; c++) o[c] = relu6(o[c]);
             break;
         case ACT_PRELU:
             for (int c = 0; c < OC; c++) o[c] = o[c] >= 0.0f ? o[c] : alpha[c] * o[c];
@@ -1337,10 +1341,10 @@ static void run_unary(hd_tfjs_graph *g, tg_node *n)
     size_t N = n->out.size;
     switch (n->kind) {
     case OP_RELU:
-        for (size_t i = 0; i < N; i++) o[i] = x[i] > 0.0f ? x[i] : 0.0f;
+        for (size_t i = 0; i < N; i++) o[i] = relu(x[i]);
         break;
     case OP_RELU6:
-        for (size_t i = 0; i < N; i++) o[i] = x[i] > 0.0f ? (x[i] < 6.0f ? x[i] : 6.0f) : 0.0f;
+        for (size_t i = 0; i < N; i++) o[i] = relu6(x[i]);
         break;
     case OP_SIGMOID:
         for (size_t i = 0; i < N; i++) o[i] = 1.0f / (1.0f + expf(-x[i])); /* 1 / (1 + e^-x) */
