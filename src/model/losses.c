@@ -221,19 +221,28 @@ double hd_loss_albedo_consistency(hd_losses *L, float scale)
     return sum / P;
 }
 
-/* mean_m(|A - A_gt|) per image with a ground-truth albedo, summed over i and j, mean over pairs. */
-double hd_loss_albedo_supervised(hd_losses *L, float scale)
+/* mean_m |x - target| per image b with has[b] (C channels, the domain weight), summed over i and
+ * j, mean over pairs; scale times its gradient into dx. The target is detached. */
+static double l1_to_target(hd_losses *L, const float *x, float *dx, const float *target, int C,
+                           const unsigned char *has, float scale)
 {
     hd_net *net = L->net;
     int B = net->B, HW = net->H * net->W, P = B / 2;
+    size_t n = (size_t)C * HW;
     double sum = 0;
     for (int b = 0; b < B; b++) {
-        if (!L->batch->has_albedo[b]) continue;
-        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? net->d_albedo + (size_t)b * 3 * HW : NULL, NULL,
-                                      net->albedo + (size_t)b * 3 * HW, L->batch->albedo_gt + (size_t)b * 3 * HW,
-                                      L->batch->mask + (size_t)b * HW, 3, HW, scale * wgt(L, b) / P);
+        if (!has[b]) continue;
+        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? dx + (size_t)b * n : NULL, NULL, x + (size_t)b * n,
+                                      target + (size_t)b * n, L->batch->mask + (size_t)b * HW, C, HW,
+                                      scale * wgt(L, b) / P);
     }
     return sum / P;
+}
+
+/* mean_m(|A - A_gt|) per image with a ground-truth albedo, summed over i and j, mean over pairs. */
+double hd_loss_albedo_supervised(hd_losses *L, float scale)
+{
+    return l1_to_target(L, L->net->albedo, L->net->d_albedo, L->batch->albedo_gt, 3, L->batch->has_albedo, scale);
 }
 
 /* The scale anchor: (A k, S / k) scores the same on every paper term but L_a, which prefers k -> 0;
@@ -289,16 +298,7 @@ double hd_loss_shading_mean(hd_losses *L, float scale)
 
 double hd_loss_shading_prior(hd_losses *L, float scale)
 {
-    hd_net *net = L->net;
-    int B = net->B, HW = net->H * net->W, P = B / 2;
-    double sum = 0;
-    for (int b = 0; b < B; b++) {
-        if (!L->batch->has_normal[b]) continue;
-        sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? net->d_shading + (size_t)b * HW : NULL, NULL,
-                                      net->shading + (size_t)b * HW, L->prior + (size_t)b * HW,
-                                      L->batch->mask + (size_t)b * HW, 1, HW, scale * wgt(L, b) / P);
-    }
-    return sum / P;
+    return l1_to_target(L, L->net->shading, L->net->d_shading, L->prior, 1, L->batch->has_normal, scale);
 }
 
 /* L_s = mean_wx(|dx S| / max(|dx S|, 0.01)) + mean_wy(|dy S| / max(|dy S|, 0.01)). */
