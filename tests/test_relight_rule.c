@@ -5,7 +5,8 @@
  * blurring and feathering of known shapes. The rule (hd_apply_decomposition): exactly the input
  * under the face's own light, one factor for the three channels under a grey light, the input bit
  * for bit where the mask is 0, the eyes following the skin even when the normals there are wrong,
- * the mean luminance kept, and close to A * s(N, l_target) on an exact decomposition. */
+ * the mean luminance kept, and close to A * s(N, l_target) on an exact decomposition. The face's
+ * region in a photo: grown over the forehead's skin to the hairline and nowhere else. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
@@ -410,6 +411,75 @@ static void test_guard(void)
     free_face(&d, &in, &mask);
 }
 
+/* The face's region in a photo grows from the mesh's upper edge over the forehead's skin to the
+ * hairline (forehead.c), and nowhere else: not into hair, the background, the neck below the
+ * mesh, nor past its reach. A constructed face: eyes at (80, 100) and (120, 100) (eye distance 40),
+ * forehead up (landmark 10 above, 152 below), skin in a disc of radius 70 with hair above y = 45
+ * (or, bald, a disc of radius 90 and no hair; or a fringe of hair across the mesh's top, with skin
+ * above it), the mesh's coverage a disc of radius 50 about (100, 110), so its top is at y = 60. */
+static void test_forehead_region(void)
+{
+    static const int right_eye[] = {33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246};
+    static const int left_eye[] = {263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466};
+    const int W = 200, H = 200;
+    const size_t P = (size_t)W * H;
+    hd_aligned_face f;
+    memset(&f, 0, sizeof f);
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++) f.landmarks[i][0] = 100, f.landmarks[i][1] = 100;
+    for (int i = 0; i < 16; i++) {
+        f.landmarks[right_eye[i]][0] = 80, f.landmarks[right_eye[i]][1] = 100;
+        f.landmarks[left_eye[i]][0] = 120, f.landmarks[left_eye[i]][1] = 100;
+    }
+    f.landmarks[10][1] = 40, f.landmarks[152][1] = 190;
+    for (int kind = 0; kind < 3; kind++) {
+        const int bald = kind == 1, fringe = kind == 2;
+        hd_image photo = image(W, H, 3, 0.8f); /* a light grey background */
+        float *cov = calloc(P, sizeof *cov), *region = calloc(P, sizeof *region);
+        if (!cov || !region) exit(1);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                size_t p = (size_t)y * W + x;
+                float dx = x + 0.5f - 100, dy = y + 0.5f - 100, dc = y + 0.5f - 110;
+                const float *rgb = NULL;
+                static const float skin[3] = {0.70f, 0.50f, 0.40f}, hair[3] = {0.10f, 0.07f, 0.05f};
+                const float r = bald ? 90.0f : 70.0f; /* bald: skin up to the picture's top */
+                if (dx * dx + dy * dy < r * r) rgb = (!bald && y < 45) || (fringe && y >= 55 && y < 75) ? hair : skin;
+                if (x >= 85 && x < 115 && y > 165) rgb = skin; /* the neck */
+                /* the skin's grain, so that its deviations are not 0 */
+                for (int c = 0; rgb && c < 3; c++) photo.data[c * P + p] = rgb[c] * (1 + 0.02f * sinf(1.3f * x + 2.1f * y));
+                cov[p] = dx * dx + dc * dc < 50 * 50 ? 1.0f : 0.0f;
+            }
+        CHECK(hd_photo_face_region(&f, &photo, cov, 0.0f, region) == HD_OK);
+        int same = 1;
+        for (size_t p = 0; p < P; p++) same &= region[p] == cov[p];
+        CHECK(same); /* no growth: the coverage */
+        CHECK(hd_photo_face_region(&f, &photo, cov, 0.7f, region) == HD_OK);
+#define AT(x, y) region[(size_t)(y) * W + (x)]
+        CHECK(AT(100, 50) == !fringe); /* forehead skin above the mesh */
+        CHECK(AT(75, 55) == !fringe);
+        CHECK(AT(100, 100) == 1.0f); /* the mesh itself */
+        CHECK(AT(20, 100) == 0.0f);  /* background beside the face */
+        CHECK(AT(100, 190) == 0.0f); /* the neck, below the mesh */
+        CHECK(AT(100, 166) == 0.0f);
+        if (fringe) {
+            CHECK(AT(100, 50) == 0.0f); /* skin above a fringe across the mesh: not reached */
+        } else if (!bald) {
+            CHECK(AT(40, 60) == 0.0f); /* background at forehead height */
+            CHECK(AT(100, 40) == 0.0f); /* hair */
+            CHECK(AT(100, 44) == 0.0f);
+        } else {
+            CHECK(AT(100, 36) == 1.0f); /* 24 px above the mesh: within reach (0.7 x 40 = 28) */
+            CHECK(AT(100, 29) == 0.0f); /* 31 px: beyond */
+        }
+#undef AT
+        size_t grown = 0;
+        for (size_t p = 0; p < P; p++) grown += region[p] > 0.5f && cov[p] <= 0.5f;
+        CHECK(fringe || grown > 200);
+        hd_image_free(&photo);
+        free(cov), free(region);
+    }
+}
+
 int main(void)
 {
     /* the canonical mesh (for the face regions): from the build tree, the source tree's models/ */
@@ -424,5 +494,6 @@ int main(void)
     test_rule();
     test_source_light();
     test_guard();
+    test_forehead_region();
     return test_summary("test_relight_rule");
 }

@@ -12,9 +12,8 @@
 #include "core/core.h"
 #include "apply/apply.h"
 
-/* Feather bands: in a texture, a share of its side; in a photo, a share of the eye distance. */
+/* The feather band in a texture, a share of its side (a photo's: forehead.c). */
 #define FEATHER_TEXTURE 0.01f
-#define FEATHER_PHOTO 0.30f
 
 void hd_apply_result_free(hd_apply_result *r)
 {
@@ -194,17 +193,6 @@ hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_im
     return st;
 }
 
-/* Feather weights of a face's warped coverage in the photo. */
-static hd_status photo_feather(const hd_aligned_face *f, const hd_image *coverage, float *weight)
-{
-    float eyes[2][2];
-    hd_face_eye_centres((const float (*)[3])f->landmarks, eyes);
-    float dx = eyes[1][0] - eyes[0][0], dy = eyes[1][1] - eyes[0][1];
-    float band = FEATHER_PHOTO * sqrtf(dx * dx + dy * dy);
-    if (band < 2.0f) band = 2.0f;
-    return hd_field_feather(coverage->data, coverage->width, coverage->height, band, weight);
-}
-
 /* One job on face f of a photo (out is the photo's copy, with earlier faces already changed). */
 static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, const float *feather,
                            hd_relight_rule rule, const face_rule *fr, const job *jb)
@@ -219,6 +207,10 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     }
     st = hd_ratio_field(d, &f->mask, f->texture.width, fr->source, fr->guard, jb->target, &field);
     if (st == HD_OK) st = hd_warp_back(f, &field, NULL, &warped, &coverage);
+    /* the field beyond the mesh (where the region grew over the forehead) from the mesh's edge */
+    const size_t P = (size_t)warped.width * (size_t)warped.height;
+    for (int c = 0; st == HD_OK && c < warped.channels; c++)
+        st = hd_field_fill(warped.data + (size_t)c * P, coverage.data, warped.width, warped.height);
     if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out);
     hd_image_free(&field);
     hd_image_free(&warped);
@@ -226,12 +218,13 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     return st;
 }
 
-/* The feather weights of face f in the photo: from the edge of where its mask warps to. */
-static hd_status face_feather(const hd_aligned_face *f, float *feather)
+/* The feather weights of face f in photo: from the edge of where its mask warps to, and over the
+ * forehead from the hairline (forehead.c). */
+static hd_status face_feather(const hd_aligned_face *f, const hd_image *photo, float *feather)
 {
     hd_image warped = {0}, coverage = {0};
     hd_status st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
-    if (st == HD_OK) st = photo_feather(f, &coverage, feather);
+    if (st == HD_OK) st = hd_photo_face_feather(f, photo, coverage.data, feather);
     hd_image_free(&warped);
     hd_image_free(&coverage);
     return st;
@@ -248,7 +241,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     job jb = {target, {{{0}}}, brightness, photo};
     face_rule fr = {{0}, 0.0f};
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
-    if (st == HD_OK) st = face_feather(f, feather);
+    if (st == HD_OK) st = face_feather(f, photo, feather);
     if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &fr, &jb);
     free(feather);
     return st;
@@ -283,7 +276,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         st = hd_model_decompose(model, &f->texture, 1, &d);
         if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
-        if (st == HD_OK && feather) st = face_feather(f, feather);
+        if (st == HD_OK && feather) st = face_feather(f, photo, feather);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &fr, &jobs[i]);
         hd_decomposition_free(&d);

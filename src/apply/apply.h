@@ -26,6 +26,19 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma);
  * to 1 at band pixels inside. */
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight);
 
+/* The region of face f in the photo that the change of light may reach (forehead.c): coverage
+ * (where the face mesh lands, > 0.5 inside; photo-sized) grown from its upper edge into the pixels
+ * above the brows that look like the face's skin (measured on its cheeks), up to `grow` eye
+ * distances away (the mesh stops short of the hairline). region (photo-sized) is 1 inside, 0 outside; grow <= 0 gives the
+ * coverage itself. */
+#define HD_FOREHEAD_GROW 0.7f
+hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float grow,
+                               float *region);
+/* The feather weights of face f in photo (forehead.c; weight photo-sized): rising from 0 at the
+ * mesh's edge (coverage) to 1 over 0.3 eye distances inside it, and above the brows from 0 at the
+ * grown region's edge (the hairline) to 1 over 0.12 eye distances. */
+hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float *weight);
+
 /* The log of the relighting ratio (s(N, l_target) + g) / (s(N, l_source) + g) (rule.c) at size x
  * size texels: `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere
  * (the regions and the texels outside mask filled from the skin, then blurred). d at the model's

@@ -1,0 +1,251 @@
+/* forehead.c: where and how strongly a photo's change of light applies around one face
+ * (docs/usage.md, "The relighting rule": no seam, up to the hairline). The canonical mesh stops
+ * short of the hairline, so a relit forehead kept a strip of the old light between the mesh's top
+ * edge and the hair. The face's region is grown from the mesh's upper edge into the pixels above
+ * it that look like the face's own skin (chroma, luminance and texture, measured robustly on the
+ * mesh's cheeks and nose), up to a set share of the eye distance. The feather weights fade the
+ * change over 0.3 eye distances inside the mesh's edge (jaw, ears, temples), and over a narrower band
+ * inside the grown region's edge above the brows, where that edge is the hairline. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "apply/apply.h"
+
+/* Heights are in eye distances above the line through the eyes, along the chin-to-forehead axis. */
+#define SAMPLE_LOW -0.8f  /* the face's skin is sampled on the mesh between these heights (cheeks, nose) */
+#define SAMPLE_HIGH -0.25f
+#define SAMPLE_SIDE 0.7f  /* ... and at most this far either side of the face's axis */
+#define GROW_FROM 0.5f    /* the region grows only above this height */
+#define SMOOTH 0.03f      /* the photo is blurred by this share of the eye distance before the skin test */
+#define TOL_MAD 2.5f      /* a pixel is skin within TOL_MAD median absolute deviations of the median */
+#define TOL_CHROMA 0.012f /* ... plus this much chroma */
+#define TOL_LOG_LUM 0.15f /* ... plus this much log luminance */
+#define TOL_TEXTURE 0.005f /* ... plus this much texture (above only) */
+#define FEATHER_FACE 0.30f     /* the feather inside the mesh's edge, in eye distances */
+#define FEATHER_HAIRLINE 0.12f /* the feather inside the grown region's edge, above the brows */
+#define HAIRLINE_FROM 0.3f     /* the narrow band takes over between these two heights */
+#define HAIRLINE_TO 0.6f
+#define FACE_FOREHEAD 10  /* FaceMesh: the top of the forehead */
+#define FACE_CHIN 152     /* FaceMesh: the chin */
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Median and median absolute deviation of v[0..n) (n > 0; v is reordered). */
+static void median_mad(float *v, size_t n, float *med, float *mad)
+{
+    qsort(v, n, sizeof *v, cmp_float);
+    float m = v[n / 2];
+    for (size_t i = 0; i < n; i++) v[i] = fabsf(v[i] - m);
+    qsort(v, n, sizeof *v, cmp_float);
+    *med = m;
+    *mad = v[n / 2];
+}
+
+/* The skin features, NFEAT planes of n pixels each, from the window's colours rgb (3 planes of w x h):
+ * chroma r and chroma g and log luminance of the colours blurred by `smooth` pixels, and the
+ * texture: the mean absolute difference between the log luminance at about a pixel's scale and
+ * the blurred one, over the same blur (hair's strands score high, skin low). */
+enum { F_CHROMA_R, F_CHROMA_G, F_LOG_LUM, F_TEXTURE, NFEAT };
+static hd_status features_of(float *rgb, int w, int h, float smooth, float *feat)
+{
+    const size_t n = (size_t)w * h;
+    float *fine = feat + (size_t)F_TEXTURE * n;
+    for (size_t p = 0; p < n; p++) {
+        float lum = 0.2126f * rgb[p] + 0.7152f * rgb[n + p] + 0.0722f * rgb[2 * n + p];
+        fine[p] = logf(lum > 1e-3f ? lum : 1e-3f);
+    }
+    hd_status st = hd_field_blur(fine, w, h, 0.8f);
+    for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_blur(rgb + (size_t)c * n, w, h, smooth);
+    for (size_t p = 0; st == HD_OK && p < n; p++) {
+        float r = rgb[p], g = rgb[n + p], b = rgb[2 * n + p], sum = r + g + b;
+        float lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+        feat[(size_t)F_CHROMA_R * n + p] = sum > 1e-6f ? r / sum : 1.0f / 3;
+        feat[(size_t)F_CHROMA_G * n + p] = sum > 1e-6f ? g / sum : 1.0f / 3;
+        feat[(size_t)F_LOG_LUM * n + p] = logf(lum > 1e-3f ? lum : 1e-3f);
+        fine[p] = fabsf(fine[p] - feat[(size_t)F_LOG_LUM * n + p]);
+    }
+    if (st == HD_OK) st = hd_field_blur(fine, w, h, smooth);
+    return st;
+}
+
+/* Whether pixel p of the features looks like the skin of medians med within tolerances tol. */
+static int is_skin(const float *feat, size_t n, size_t p, const float med[NFEAT], const float tol[NFEAT])
+{
+    int skin = feat[(size_t)F_TEXTURE * n + p] - med[F_TEXTURE] <= tol[F_TEXTURE];
+    for (int c = 0; c < F_TEXTURE; c++) skin &= fabsf(feat[(size_t)c * n + p] - med[c]) <= tol[c];
+    return skin;
+}
+
+/* The window the work is done in: the coverage's bounding box grown by margin, within the photo. */
+typedef struct window {
+    int x0, y0, w, h;
+} window;
+
+static window window_of(const float *coverage, int W, int H, float margin)
+{
+    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            if (coverage[(size_t)y * W + x] > 0.5f) {
+                x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1;
+                y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
+            }
+    if (x1 < 0) return (window){0, 0, 0, 0};
+    int m = (int)ceilf(margin);
+    x0 = x0 - m < 0 ? 0 : x0 - m, y0 = y0 - m < 0 ? 0 : y0 - m;
+    x1 = x1 + m >= W ? W - 1 : x1 + m, y1 = y1 + m >= H ? H - 1 : y1 + m;
+    return (window){x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+}
+
+/* The face's frame: the eyes' midpoint, the eye distance and the unit chin-to-forehead axis. */
+typedef struct face_frame {
+    float mx, my, e, ux, uy;
+} face_frame;
+
+/* The frame of face f; 0 when its landmarks give none (eyes closer than 2 pixels, chin on forehead). */
+static int frame_of(const hd_aligned_face *f, face_frame *fr)
+{
+    float eyes[2][2];
+    hd_face_eye_centres((const float (*)[3])f->landmarks, eyes);
+    *fr = (face_frame){0.5f * (eyes[0][0] + eyes[1][0]), 0.5f * (eyes[0][1] + eyes[1][1]),
+                       hypotf(eyes[1][0] - eyes[0][0], eyes[1][1] - eyes[0][1]),
+                       f->landmarks[FACE_FOREHEAD][0] - f->landmarks[FACE_CHIN][0],
+                       f->landmarks[FACE_FOREHEAD][1] - f->landmarks[FACE_CHIN][1]};
+    const float ul = hypotf(fr->ux, fr->uy);
+    if (!(fr->e >= 2.0f) || !(ul > 0) || !isfinite(fr->e) || !isfinite(ul)) return 0;
+    fr->ux /= ul, fr->uy /= ul;
+    return 1;
+}
+
+/* Offset of photo pixel (x, y) across the face's axis, in eye distances. */
+static float side_of(const face_frame *fr, int x, int y)
+{
+    return ((x + 0.5f - fr->mx) * -fr->uy + (y + 0.5f - fr->my) * fr->ux) / fr->e;
+}
+
+/* Height of photo pixel (x, y) above the eye line, in eye distances. */
+static float height_of(const face_frame *fr, int x, int y)
+{
+    return ((x + 0.5f - fr->mx) * fr->ux + (y + 0.5f - fr->my) * fr->uy) / fr->e;
+}
+
+hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float grow,
+                               float *region)
+{
+    if (!f || !photo || !photo->data || photo->channels != 3 || !coverage || !region)
+        return hd_fail(HD_ERR_ARG, "relight: the face region needs a face, a 3-channel photo and its coverage");
+    const int W = photo->width, H = photo->height;
+    const size_t P = (size_t)W * (size_t)H;
+    for (size_t p = 0; p < P; p++) region[p] = coverage[p] > 0.5f ? 1.0f : 0.0f;
+    face_frame fr;
+    if (!(grow > 0) || !frame_of(f, &fr)) return HD_OK;
+    const float reach = grow * fr.e;
+    const window win = window_of(coverage, W, H, reach + 4.0f * SMOOTH * fr.e + 2.0f);
+    const size_t N = (size_t)win.w * (size_t)win.h;
+    if (N == 0) return HD_OK;
+    if (N > (size_t)INT32_MAX) return hd_fail(HD_ERR_ARG, "relight: a %d x %d face is too large", win.w, win.h);
+
+    /* the window's skin features */
+    float *rgb = hd_malloc(3 * N * sizeof(float)), *feat = hd_malloc(NFEAT * N * sizeof(float));
+    float *samples = hd_malloc(N * sizeof(float)), *dist = hd_malloc(N * sizeof(float));
+    int *queue = hd_malloc(N * sizeof(int)), *seed = hd_malloc(N * sizeof(int));
+    hd_status st = rgb && feat && samples && dist && queue && seed ? HD_OK : HD_ERR_NOMEM;
+    for (int c = 0; c < 3 && st == HD_OK; c++)
+        for (int y = 0; y < win.h; y++)
+            memcpy(rgb + (size_t)c * N + (size_t)y * win.w,
+                   photo->data + (size_t)c * P + (size_t)(y + win.y0) * W + win.x0, (size_t)win.w * sizeof(float));
+    if (st == HD_OK) st = features_of(rgb, win.w, win.h, SMOOTH * fr.e, feat);
+
+    /* the face's skin: medians and deviations over the mesh's cheeks and nose (the forehead may be
+     * under a fringe); the texture is tested on one side only (smoother than the skin is skin) */
+    float med[NFEAT] = {0}, tol[NFEAT] = {0};
+    const float extra[NFEAT] = {TOL_CHROMA, TOL_CHROMA, TOL_LOG_LUM, TOL_TEXTURE};
+    size_t n = 0;
+    for (int k = 0; k < NFEAT && st == HD_OK; k++) {
+        n = 0;
+        for (int y = 0; y < win.h; y++)
+            for (int x = 0; x < win.w; x++) {
+                const int gx = x + win.x0, gy = y + win.y0;
+                const float h = height_of(&fr, gx, gy);
+                if (region[(size_t)gy * W + gx] > 0.5f && h >= SAMPLE_LOW && h <= SAMPLE_HIGH &&
+                    fabsf(side_of(&fr, gx, gy)) <= SAMPLE_SIDE)
+                    samples[n++] = feat[(size_t)k * N + (size_t)y * win.w + x];
+            }
+        if (n == 0) break;
+        float mad;
+        median_mad(samples, n, &med[k], &mad);
+        tol[k] = TOL_MAD * mad + extra[k];
+    }
+
+    /* breadth-first growth from the mesh's pixels above GROW_FROM, through skin, within reach of
+     * the seed each path started from (Euclidean, so that the grown edge is round) */
+    size_t head = 0, tail = 0;
+    for (int y = 0; st == HD_OK && n > 0 && y < win.h; y++)
+        for (int x = 0; x < win.w; x++) {
+            const size_t i = (size_t)y * win.w + x;
+            const int gx = x + win.x0, gy = y + win.y0;
+            dist[i] = -1.0f;
+            if (region[(size_t)gy * W + gx] <= 0.5f || height_of(&fr, gx, gy) < GROW_FROM) continue;
+            if (!is_skin(feat, N, i, med, tol)) continue; /* a fringe over the mesh: no growth from it */
+            dist[i] = 0.0f;
+            seed[i] = (int)i;
+            queue[tail++] = (int)i;
+        }
+    static const int DX[4] = {1, -1, 0, 0}, DY[4] = {0, 0, 1, -1};
+    while (st == HD_OK && head < tail) {
+        const int i = queue[head++], x = i % win.w, y = i / win.w;
+        const int s = seed[i], sx = s % win.w, sy = s / win.w;
+        for (int k = 0; k < 4; k++) {
+            const int qx = x + DX[k], qy = y + DY[k];
+            if (qx < 0 || qy < 0 || qx >= win.w || qy >= win.h) continue;
+            const size_t q = (size_t)qy * win.w + qx;
+            if (dist[q] >= 0.0f || region[(size_t)(qy + win.y0) * W + qx + win.x0] > 0.5f) continue;
+            const float d = hypotf((float)(qx - sx), (float)(qy - sy));
+            if (d > reach || height_of(&fr, qx + win.x0, qy + win.y0) < GROW_FROM) continue;
+            if (!is_skin(feat, N, q, med, tol)) continue;
+            dist[q] = d;
+            seed[q] = s;
+            queue[tail++] = (int)q;
+        }
+    }
+    for (int y = 0; st == HD_OK && n > 0 && y < win.h; y++)
+        for (int x = 0; x < win.w; x++)
+            if (dist[(size_t)y * win.w + x] > 0.0f) region[(size_t)(y + win.y0) * W + x + win.x0] = 1.0f;
+    free(rgb), free(feat), free(samples), free(dist), free(queue), free(seed);
+    return st;
+}
+
+static float smoothstep01(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
+
+hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float *weight)
+{
+    if (!photo || !photo->data || !coverage || !weight)
+        return hd_fail(HD_ERR_ARG, "relight: the feather needs a photo and the face's coverage");
+    const int W = photo->width, H = photo->height;
+    const size_t P = (size_t)W * (size_t)H;
+    face_frame fr;
+    const int framed = frame_of(f, &fr);
+    const float e = framed ? fr.e : 0.0f, band = FEATHER_FACE * e > 2.0f ? FEATHER_FACE * e : 2.0f;
+    hd_status st = hd_field_feather(coverage, W, H, band, weight);
+    if (st != HD_OK || !framed) return st;
+    float *region = hd_malloc((P ? P : 1) * sizeof(float)), *narrow = hd_malloc((P ? P : 1) * sizeof(float));
+    st = region && narrow ? HD_OK : HD_ERR_NOMEM;
+    if (st == HD_OK) st = hd_photo_face_region(f, photo, coverage, HD_FOREHEAD_GROW, region);
+    const float nb = FEATHER_HAIRLINE * e > 2.0f ? FEATHER_HAIRLINE * e : 2.0f;
+    if (st == HD_OK) st = hd_field_feather(region, W, H, nb, narrow);
+    /* above the brows the narrow band from the grown edge; below, the mesh's; between, a blend */
+    for (int y = 0; st == HD_OK && y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const size_t p = (size_t)y * W + x;
+            const float t = smoothstep01((height_of(&fr, x, y) - HAIRLINE_FROM) / (HAIRLINE_TO - HAIRLINE_FROM));
+            const float up = t * narrow[p];
+            weight[p] = up > weight[p] ? up : weight[p];
+        }
+    free(region), free(narrow);
+    return st;
+}
