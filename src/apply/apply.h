@@ -25,12 +25,14 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma);
  * pixel p to the nearest pixel where inside[p] <= 0.5 (or the picture's edge); 0 outside, rising
  * to 1 at band pixels inside. */
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight);
+/* The smoothstep 3t^2 - 2t^3 of t clamped to [0, 1], the feathers' ramp. */
+float hd_field_smoothstep(float t);
 
 /* The region of face f in the photo that the change of light may reach (forehead.c): coverage
  * (where the face mesh lands, > 0.5 inside; photo-sized) grown from its upper edge into the pixels
  * above the brows that look like the face's skin (measured on its cheeks), up to `grow` eye
- * distances away (the mesh stops short of the hairline). region (photo-sized) is 1 inside, 0 outside; grow <= 0 gives the
- * coverage itself. */
+ * distances away (the mesh stops short of the hairline). region (photo-sized) is 1 inside, 0
+ * outside; grow <= 0 gives the coverage itself. */
 #define HD_FOREHEAD_GROW 0.7f
 hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float grow,
                                float *region);

@@ -111,7 +111,7 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma)
     return HD_OK;
 }
 
-static float smoothstep01(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
+float hd_field_smoothstep(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
 
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight)
 {
@@ -145,6 +145,6 @@ hd_status hd_field_feather(const float *inside, int w, int h, float band, float 
             d[p] = v;
         }
     const float inv = band > 0 ? 1.0f / band : 0.0f;
-    for (size_t p = 0; p < n; p++) weight[p] = band > 0 ? smoothstep01(d[p] * inv) : (d[p] > 0 ? 1.0f : 0.0f);
+    for (size_t p = 0; p < n; p++) weight[p] = band > 0 ? hd_field_smoothstep(d[p] * inv) : (d[p] > 0 ? 1.0f : 0.0f);
     return HD_OK;
 }

@@ -220,12 +220,10 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
     return st;
 }
 
-static float smoothstep01(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
-
 hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float *weight)
 {
-    if (!photo || !photo->data || !coverage || !weight)
-        return hd_fail(HD_ERR_ARG, "relight: the feather needs a photo and the face's coverage");
+    if (!f || !photo || !photo->data || !coverage || !weight)
+        return hd_fail(HD_ERR_ARG, "relight: the feather needs a face, a photo and the face's coverage");
     const int W = photo->width, H = photo->height;
     const size_t P = (size_t)W * (size_t)H;
     face_frame fr;
@@ -242,7 +240,7 @@ hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo,
     for (int y = 0; st == HD_OK && y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * W + x;
-            const float t = smoothstep01((height_of(&fr, x, y) - HAIRLINE_FROM) / (HAIRLINE_TO - HAIRLINE_FROM));
+            const float t = hd_field_smoothstep((height_of(&fr, x, y) - HAIRLINE_FROM) / (HAIRLINE_TO - HAIRLINE_FROM));
             const float up = t * narrow[p];
             weight[p] = up > weight[p] ? up : weight[p];
         }
