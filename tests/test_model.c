@@ -915,6 +915,79 @@ static void test_shading_mean(void)
     hd_trainer_free(&t);
 }
 
+/* ---- L_lpair: its value from the L-Net outputs (the identity for a same-light pair, the mirror
+ * for a mirror pair, nothing for an unrelated one, each pair by image i's domain weight), its
+ * gradient wrt every light by central differences at set lights away from the kinks of |d|, and
+ * zero for a pair of one image twice. (Its path from l into L-Net is L_l's, checked above.) */
+static void test_light_pair(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 3)) return;
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_LIGHT_PAIR] = 1.0f;
+    t.batch.pair_light[0] = HD_PAIR_LIGHT_SAME;
+    t.batch.pair_light[1] = HD_PAIR_LIGHT_MIRROR;
+    t.batch.pair_light[2] = HD_PAIR_LIGHT_NONE;
+    t.batch.weight[0] = t.batch.weight[1] = 1.0f;
+    t.batch.weight[2] = t.batch.weight[3] = 0.5f; /* pair 1 counts half */
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    /* lights set by hand: every difference at least 0.05 */
+    hd_rng g;
+    hd_rng_seed(&g, 5, 1);
+    float *l = t.net.light;
+    for (int k = 0; k < 6 * HD_SH_COEFFS; k++) l[k] = hd_rng_range(&g, -1.0f, 1.0f);
+    for (int k = 0; k < HD_SH_COEFFS; k++) {
+        l[HD_SH_COEFFS + k] = l[k] + (k % 2 ? 0.3f : -0.2f) - 0.01f * k; /* pair 0: l_j = l_i + d */
+        float m = k == 3 || k == 4 || k == 7 ? -l[2 * HD_SH_COEFFS + k] : l[2 * HD_SH_COEFFS + k];
+        l[3 * HD_SH_COEFFS + k] = m + (k % 3 ? 0.25f : -0.15f); /* pair 1: l_j = mirror(l_i) + d */
+    }
+    double want = 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++)
+        want += (fabs((k % 2 ? 0.3 : -0.2) - 0.01 * k) + 0.5 * fabs(k % 3 ? 0.25 : -0.15)) / HD_SH_COEFFS;
+    memset(t.net.d_light, 0, 6 * HD_SH_COEFFS * sizeof(float));
+    CHECK_NEAR(hd_loss_light_pair(&t.losses, 1.0f), want / 3, 1e-6);
+    for (int k = 0; k < 6 * HD_SH_COEFFS; k++) {
+        float keep = l[k];
+        l[k] = keep + 1e-3f;
+        double up = hd_loss_light_pair(&t.losses, 0.0f);
+        l[k] = keep - 1e-3f;
+        double down = hd_loss_light_pair(&t.losses, 0.0f);
+        l[k] = keep;
+        CHECK_NEAR(t.net.d_light[k], (up - down) / 2e-3, 1e-4);
+    }
+    /* pair 2 is unrelated: no gradient reaches its lights */
+    for (int k = 4 * HD_SH_COEFFS; k < 6 * HD_SH_COEFFS; k++) CHECK(t.net.d_light[k] == 0.0f);
+    /* through the trainer: the value from L-Net's own outputs */
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    want = 0;
+    for (int p = 0; p < 2; p++) {
+        float ri[HD_SH_COEFFS];
+        memcpy(ri, l + 2 * p * HD_SH_COEFFS, sizeof ri);
+        if (p == 1) ri[3] = -ri[3], ri[4] = -ri[4], ri[7] = -ri[7]; /* x, yx and xz change sign */
+        double s = 0;
+        for (int k = 0; k < HD_SH_COEFFS; k++) s += fabs(l[(2 * p + 1) * HD_SH_COEFFS + k] - ri[k]);
+        want += (p == 1 ? 0.5 : 1.0) * s / HD_SH_COEFFS;
+    }
+    CHECK(want > 1e-4);
+    CHECK_NEAR(r.terms[HD_LOSS_LIGHT_PAIR], want / 3, 1e-6);
+    CHECK_NEAR(r.total, r.terms[HD_LOSS_LIGHT_PAIR], 1e-7);
+    /* a same-light pair of one image twice: one light, no loss */
+    size_t HW = 32 * 32;
+    memcpy(t.batch.image + 3 * HW, t.batch.image, 3 * HW * sizeof(float));
+    memcpy(t.batch.mask + HW, t.batch.mask, HW * sizeof(float));
+    memcpy(t.batch.coarse_normal + 3 * HW, t.batch.coarse_normal, 3 * HW * sizeof(float));
+    t.batch.pair_light[1] = t.batch.pair_light[2] = HD_PAIR_LIGHT_NONE;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_LIGHT_PAIR] < 1e-7);
+    /* no relation anywhere (the presets, synthetic pairs): the term is 0 */
+    t.batch.pair_light[0] = HD_PAIR_LIGHT_NONE;
+    memcpy(t.batch.image + 3 * HW, t.batch.image + 6 * HW, 3 * HW * sizeof(float));
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_LIGHT_PAIR] == 0.0);
+    hd_trainer_free(&t);
+}
+
 /* ---- --light-target image: on a face of even albedo a under the light l0 over the coarse
  * normals, l_hat is the least-squares light of the luminance a s(n, l0), scaled so that the mean
  * of its shading over the mask is c: the same light whatever a is (0.2 .. 0.5 here) */
@@ -1016,6 +1089,7 @@ int main(void)
     test_shading_mean();
     test_shading_prior();
     test_light_from_image();
+    test_light_pair();
     test_loss_plot();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);

@@ -98,7 +98,7 @@ head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column:
 expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
 awk -F, 'NR == 2 { exit !($11 > 0) }' run/loss.csv || fail "shading_mean should be on by default"
 # the shading prior: a tenth column, on by default: weight 0 changes the first step's total only
-head -1 run/loss.csv | grep -q ",shading_prior,disc," || fail "no shading_prior column: $(head -1 run/loss.csv)"
+head -1 run/loss.csv | grep -q ",shading_prior,light_pair,disc," || fail "no shading_prior column: $(head -1 run/loss.csv)"
 awk -F, 'NR == 2 { exit !($12 > 0) }' run/loss.csv || fail "the shading prior's value should be positive"
 expect 0 $H train data -o noprior $T --iters 2 --every 2 --w-shading-prior 0
 [ "$(sed -n 2p noprior/loss.csv | cut -d, -f3-12)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-12)" ] ||
@@ -137,6 +137,25 @@ awk -F, 'NR == 2 { exit !($10 > 0.01) }' mix0/loss.csv || fail "synthetic pairs 
 expect 0 $H train data -o mix $T --iters 5 --every 3 --w-albedo-gt 1 --real real --real-share 1 --mirror-pairs --resume
 expect 0 $H train data -o mixs $T --iters 5 --every 3 --w-albedo-gt 1 --real real --real-share 1 --mirror-pairs
 [ "$(losses mix/loss.csv)" = "$(losses mixs/loss.csv)" ] || fail "a resumed mixed run differs from a straight one"
+# L_lpair: a mirror pair's lights are related (column 13 positive on every row: these real
+# subjects have one image each, so every real pair is a mirror pair), a synthetic pair's are not
+awk -F, 'NR > 1 && !($13 > 0) { exit 1 }' mix/loss.csv || fail "mirror pairs without L_lpair: $(cat mix/loss.csv)"
+awk -F, 'NR > 1 && $13 != 0 { exit 1 }' mix0/loss.csv || fail "synthetic pairs with L_lpair: $(cat mix0/loss.csv)"
+# two photos of one person (from a trained model: an initial L-Net gives every image one light):
+# related only with --real-same-light; the weight moves the total only
+expect 0 $H synth other2 --subjects 1 --per-subject 2 --size 32 --seed 10 --threads 1
+mkdir -p real2/a
+for i in 0000 0001; do for k in png mask.png normal.png; do cp other2/subject_0000/$i.$k real2/a/$i.$k; done; done
+expect 0 $H train data -o same0 $T --iters 2 --every 2 --init run/model.safetensors --real real2 --real-share 1
+awk -F, 'NR > 1 && $13 != 0 { exit 1 }' same0/loss.csv || fail "L_lpair without --real-same-light: $(cat same0/loss.csv)"
+expect 0 $H train data -o same1 $T --iters 2 --every 2 --init run/model.safetensors --real real2 --real-share 1 --real-same-light
+awk -F, 'NR > 1 && !($13 > 0) { exit 1 }' same1/loss.csv || fail "no L_lpair with --real-same-light: $(cat same1/loss.csv)"
+expect 0 $H train data -o same2 $T --iters 1 --every 1 --init run/model.safetensors --real real2 --real-share 1 --real-same-light --w-light-pair 3
+[ "$(sed -n 2p same2/loss.csv | cut -d, -f3-13)" = "$(sed -n 2p same1/loss.csv | cut -d, -f3-13)" ] ||
+    fail "the weight of L_lpair changed the first step's terms"
+[ "$(sed -n 2p same2/loss.csv | cut -d, -f2)" != "$(sed -n 2p same1/loss.csv | cut -d, -f2)" ] ||
+    fail "the weight of L_lpair did not change the total"
+expect 2 $H train data -o y --real-same-light
 expect 2 $H train data -o y --mirror-pairs
 expect 2 $H train data -o y --real real --real-share 2
 expect 2 $H train data -o y --light-target nope

@@ -67,7 +67,7 @@ int cmd_train(int argc, char **argv)
     int lnet_iters = -1, quiet = 0, micro = 0, prior_iters = 0;
     float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
     const char *real_dir = NULL;
-    int mirror = 0;
+    int mirror = 0, same_light = 0;
     float w[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) w[k] = NAN;
     const cli_opt opts[] = {
@@ -97,6 +97,8 @@ int cmd_train(int argc, char **argv)
          "not the paper's: weight of the scale anchor |mean_m S - c| (default 1; 0 turns it off)"},
         {"w-shading-prior", 0, CLI_OPT_FLOAT, &w[HD_LOSS_SHADING_PRIOR], "X",
          "not the paper's: weight of the shading prior |S - s(N_bar, l_img)| (default 1; 0 turns it off)"},
+        {"w-light-pair", 0, CLI_OPT_FLOAT, &w[HD_LOSS_LIGHT_PAIR], "X",
+         "not the paper's: weight of L_lpair |l_j - R l_i| on mirror pairs and --real-same-light pairs (default 0)"},
         {"shading-prior-iters", 0, CLI_OPT_INT, &prior_iters, "K",
          "the shading prior's weight falls linearly to 0 over the first K iterations (default 0: constant)"},
         {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",
@@ -108,6 +110,8 @@ int cmd_train(int argc, char **argv)
         {"real-share", 0, CLI_OPT_FLOAT, &real_share, "F", "probability that a pair comes from --real (default 0.5)"},
         {"real-weight", 0, CLI_OPT_FLOAT, &real_weight, "X", "loss weight of --real pairs, every term but L_adv (default 1)"},
         {"mirror-pairs", 0, CLI_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
+        {"real-same-light", 0, CLI_OPT_FLAG, &same_light, NULL,
+         "the --real photos of one person were taken under one light (their pairs get L_lpair)"},
         {"prior-normals", 0, CLI_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
         {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt|image",
@@ -182,10 +186,12 @@ int cmd_train(int argc, char **argv)
     if (!(real_share >= 0.0f && real_share <= 1.0f)) return cli_usage_error(&spec, "--real-share must be in [0, 1]");
     if (!(real_weight >= 0.0f && real_weight < 1e6f)) return cli_usage_error(&spec, "--real-weight must not be negative");
     if (mirror && !real_dir) return cli_usage_error(&spec, "--mirror-pairs needs --real DIR");
+    if (same_light && !real_dir) return cli_usage_error(&spec, "--real-same-light needs --real DIR");
     o.real_dir = real_dir;
     o.real_share = real_share;
     o.real_weight = real_weight;
     o.mirror_pairs = mirror;
+    o.real_same_light = same_light;
     o.seed = (uint64_t)seed;
     o.init_model = init;
     o.dump_grads = dump;

@@ -11,12 +11,12 @@
 #define HD_SMOOTH_EPS 0.01f
 
 const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt",
-                                                    "shading_mean", "shading_prior"};
+                                                    "shading_mean", "shading_prior", "light_pair"};
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 1.0f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 1.0f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 1.0f, 0.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 1.0f, 0.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -349,6 +349,35 @@ double hd_loss_light(hd_losses *L, float scale)
     return sum / P;
 }
 
+/* L_lpair = mean over pairs of mean_k |d_k|, d = l_j - R l_i (R diagonal, +-1, so R^T = R). */
+double hd_loss_light_pair(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int P = net->B / 2;
+    const unsigned char *rel = L->batch->pair_light;
+    double sum = 0;
+    for (int p = 0; rel && p < P; p++) {
+        if (rel[p] != HD_PAIR_LIGHT_SAME && rel[p] != HD_PAIR_LIGHT_MIRROR) continue;
+        const float *li = net->light + (size_t)2 * p * HD_SH_COEFFS, *lj = li + HD_SH_COEFFS;
+        float *dli = net->d_light + (size_t)2 * p * HD_SH_COEFFS, *dlj = dli + HD_SH_COEFFS;
+        float r[HD_SH_COEFFS];
+        for (int k = 0; k < HD_SH_COEFFS; k++) r[k] = 1.0f;
+        if (rel[p] == HD_PAIR_LIGHT_MIRROR) hd_light_mirror(r);
+        double s = 0;
+        const float g = scale * wgt(L, 2 * p) / P / HD_SH_COEFFS;
+        for (int k = 0; k < HD_SH_COEFFS; k++) {
+            float d = lj[k] - r[k] * li[k], sg = (float)((d > 0) - (d < 0));
+            s += fabsf(d);
+            if (scale != 0.0f) {
+                dlj[k] += g * sg;
+                dli[k] -= g * sg * r[k];
+            }
+        }
+        sum += wgt(L, 2 * p) * s / HD_SH_COEFFS;
+    }
+    return sum / P;
+}
+
 /* L_Srec = mean_m(|S - s(N, l)|): reaches S, N and l. */
 double hd_loss_shading_reconstruction(hd_losses *L, float scale)
 {
@@ -430,6 +459,7 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
     terms[HD_LOSS_ALBEDO_GT] = hd_loss_albedo_supervised(L, s[HD_LOSS_ALBEDO_GT]);
     terms[HD_LOSS_SHADING_MEAN] = hd_loss_shading_mean(L, s[HD_LOSS_SHADING_MEAN]);
     terms[HD_LOSS_SHADING_PRIOR] = hd_loss_shading_prior(L, s[HD_LOSS_SHADING_PRIOR]);
+    terms[HD_LOSS_LIGHT_PAIR] = hd_loss_light_pair(L, s[HD_LOSS_LIGHT_PAIR]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

@@ -30,11 +30,13 @@ typedef enum hd_loss_term {
                            * both presets; docs/training.md) */
     HD_LOSS_SHADING_PRIOR, /* not the paper's: mean_m |S - s(N_bar, l_img)|, the shading of the photo's own
                             * light on the coarse normals (weight 1 in both presets; docs/training.md) */
+    HD_LOSS_LIGHT_PAIR, /* not the paper's: L_lpair, mean_k |l_j - R l_i| over the pairs whose lights the
+                         * data relates (R = 1 or the mirror; weight 0 in both presets; docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 
 /* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt", "shading_mean",
- * "shading_prior"): CSV columns, the --w-NAME options and the dump's loss.NAME tensors. */
+ * "shading_prior", "light_pair"): CSV columns, the --w-NAME options and the dump's loss.NAME tensors. */
 extern const char *const hd_loss_names[HD_LOSS_TERMS];
 
 typedef struct hd_loss_weights {
@@ -87,6 +89,10 @@ double hd_loss_shading_mean(hd_losses *L, float scale);
  * normals, l_img the least-squares light of the photo's luminance on N_bar scaled so that the
  * target's mean over the face is the anchor's c. A constant S cannot satisfy it. */
 double hd_loss_shading_prior(hd_losses *L, float scale);
+/* Not the paper's, L_lpair: mean over pairs of mean_k |l_j,k - (R l_i)_k|, R the identity for
+ * HD_PAIR_LIGHT_SAME pairs and hd_light_mirror for HD_PAIR_LIGHT_MIRROR ones, 0 for the others;
+ * reaches both images' L-Net outputs, weighted by image i's domain weight. */
+double hd_loss_light_pair(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render

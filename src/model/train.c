@@ -344,6 +344,7 @@ hd_status hd_train(const hd_train_options *o, hd_train_result *r)
         ld.real_share = o->real_share;
         ld.real_weight = o->real_weight;
         ld.mirror = o->mirror_pairs;
+        ld.real_same_light = o->real_same_light;
     }
     ld.batch = &next;
     hd_trainer_share(&t, &ld.first, &ld.count);

@@ -46,6 +46,7 @@ typedef struct hd_train_options {
     float real_share;      /* probability that a pair is drawn from real_dir (default 0.5) */
     float real_weight;     /* domain weight of real pairs in every term but L_adv (default 1) */
     int mirror_pairs;      /* a real pair is, half the time, one photo and its mirror image */
+    int real_same_light;   /* the real pairs of one person were taken under one light (L_lpair) */
     long every;            /* checkpoint, plot and samples every K iterations */
     uint64_t seed;
     const char *init_model; /* may be NULL */

@@ -21,7 +21,7 @@ static void trainer_meta(const hd_trainer *t, hd_meta *m)
     hd_meta_set(m, "disc_adam_t", "%ld", t->disc_adam_t);
     hd_meta_set(m, "lnet_iters", "%ld", t->lnet_iters);
     hd_meta_set(m, "lr", "%.9g", t->lr);
-    char w[96] = "";
+    char w[HD_LOSS_TERMS * 16] = "";
     for (int k = 0; k < HD_LOSS_TERMS; k++) snprintf(w + strlen(w), sizeof w - strlen(w), "%s%.6g", k ? "," : "", t->weights.w[k]);
     hd_meta_set(m, "weights", "%s", w);
 }

@@ -26,9 +26,10 @@ hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
     b->light_gt = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
     b->has_light = hd_calloc(B, 1);
     b->weight = hd_calloc(B, sizeof(float));
+    b->pair_light = hd_calloc((size_t)pairs, 1);
     if (b->weight)
         for (size_t i = 0; i < B; i++) b->weight[i] = 1.0f;
-    if (!b->weight || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
+    if (!b->weight || !b->pair_light || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
         !b->light_gt || !b->has_light) {
         hd_pair_batch_free(b);
         return HD_ERR_NOMEM;
@@ -47,6 +48,7 @@ void hd_pair_batch_free(hd_pair_batch *b)
     free(b->light_gt);
     free(b->has_light);
     free(b->weight);
+    free(b->pair_light);
     memset(b, 0, sizeof *b);
 }
 
@@ -196,16 +198,19 @@ done:
 
 /* Draws pair slot p of a batch from src: a random pair of one subject's images (or, with mirror,
  * one image and its own mirror image: a face is close to symmetric, its light is mirrored) in
- * random order, flipped together at random. */
-static hd_status load_pair(const hd_pair_source *src, hd_rng *rng, int mirror, hd_pair_batch *batch, int p)
+ * random order, flipped together at random; records how the pair's lights relate. */
+static hd_status load_pair(const hd_pair_source *src, hd_rng *rng, int mirror, int same_light, hd_pair_batch *batch,
+                           int p)
 {
     long total = src->cum[src->ds->subject_count];
     int images = src->use_start[src->ds->subject_count];
     if (mirror && images > 0 && (hd_rng_u32(rng) & 1)) {
         int a = src->use[hd_rng_u32(rng) % (uint32_t)images], flip = hd_rng_u32(rng) & 1;
+        batch->pair_light[p] = HD_PAIR_LIGHT_MIRROR;
         hd_status s = load_sample(src, a, flip, batch, 2 * p);
         return s == HD_OK ? load_sample(src, a, !flip, batch, 2 * p + 1) : s;
     }
+    batch->pair_light[p] = same_light ? HD_PAIR_LIGHT_SAME : HD_PAIR_LIGHT_NONE;
     if (total < 1) return hd_fail(HD_ERR_ARG, "a set without pairs (and no mirror pairs)");
     long q = (long)(((uint64_t)hd_rng_u32(rng) << 32 | hd_rng_u32(rng)) % (uint64_t)total);
     int flip = hd_rng_u32(rng) & 1, swap = hd_rng_u32(rng) & 1, a, b;
@@ -238,7 +243,7 @@ static void load_batch(hd_loader *L)
             /* the domain coin only where there are two domains: one-domain runs draw as before */
             int real = L->real && hd_rng_range(&rng, 0.0f, 1.0f) < L->real_share;
             const hd_pair_source *from = real ? L->real : src;
-            hd_status s = load_pair(from, &rng, real && L->mirror, L->batch, p);
+            hd_status s = load_pair(from, &rng, real && L->mirror, real && L->real_same_light, L->batch, p);
             L->batch->weight[2 * p] = L->batch->weight[2 * p + 1] = real ? L->real_weight : 1.0f;
             if (s == HD_OK) break;
             if (s == HD_ERR_NOMEM || ++tries >= HD_LOAD_RETRIES || (s == HD_ERR_NOTFOUND && from->require_prior)) {

@@ -25,7 +25,16 @@ typedef struct hd_pair_batch {
     unsigned char *has_light;  /* (B) */
     float *weight;             /* (B) domain weight of the image: multiplies its part of every term but
                                 * L_adv (a pair term takes image i's); 1 unless set (mixed batches) */
+    unsigned char *pair_light; /* (P) how the pair's two lights relate, an hd_pair_light; NULL in a view:
+                                * HD_PAIR_LIGHT_NONE (not the paper's; read by L_lpair only) */
 } hd_pair_batch;
+
+/* How the two lights of a pair relate, where the data says so (L_lpair, not the paper's). */
+typedef enum hd_pair_light {
+    HD_PAIR_LIGHT_NONE = 0, /* unknown or different (synthetic pairs, real pairs by default) */
+    HD_PAIR_LIGHT_SAME,     /* one light: two photos of one person in one studio (--real-same-light) */
+    HD_PAIR_LIGHT_MIRROR    /* l_j = mirror(l_i): a photo and its own mirror image (--mirror-pairs) */
+} hd_pair_light;
 
 /* (defined in losses.c, for now) */
 hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size);
@@ -60,6 +69,7 @@ typedef struct hd_loader {
     float real_share;           /* probability that a pair comes from real */
     float real_weight;          /* the domain weight of real pairs (synthetic ones: 1) */
     int mirror;                 /* a real pair is, with probability 1/2, a photo and its mirror image */
+    int real_same_light;        /* the real pairs of one person share one light (HD_PAIR_LIGHT_SAME) */
     hd_pair_batch *batch;
     long iteration;
     int first, count; /* the slots to fill (count 0: the whole batch) */
