@@ -102,7 +102,7 @@ all: hdnet $(BUILD)/libhdnet.so
 # CFLAGS or the compiler in one BUILD folder recompiles everything.
 $(BUILD)/build.cfg: FORCE
 	@mkdir -p $(dir $@)
-	@echo '$(CC) $(CFLAGS) $(LDLIBS)' > $@.tmp; if cmp -s $@.tmp $@; then rm $@.tmp; else mv $@.tmp $@; fi
+	@echo '$(CC) $(CFLAGS) $(LDLIBS) $(MPI_CFLAGS)' > $@.tmp; if cmp -s $@.tmp $@; then rm $@.tmp; else mv $@.tmp $@; fi
 
 # The install prefix compiled into the data lookup (src/core/data_path.c), likewise.
 $(BUILD)/prefix.cfg: FORCE
@@ -141,8 +141,10 @@ $(BUILD)/%.o: %.c $(BUILD)/.deps-mmd $(BUILD)/build.cfg
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(CFLAGS_$<) $(DEPFLAGS) -I$(BUILD) -c $< -o $@
 
-# Only the tool sees MPI.
-$(TOOLOBJ): CFLAGS += $(MPI_CFLAGS)
+# Only the tool sees MPI. `private`: a target-specific value is otherwise inherited by the target's
+# prerequisites, so build.cfg was written with the MPI flags when a tool object reached it first and
+# without them otherwise, and every other `make` recompiled everything.
+$(TOOLOBJ): private CFLAGS += $(MPI_CFLAGS)
 
 # Only the dispatcher includes the generated command list.
 $(BUILD)/tools/main.o: $(BUILD)/commands.inc
@@ -186,6 +188,15 @@ test: tests
 check:
 	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
+
+# The portable build (no oneDNN: what a machine without libdnnl-dev gets) in build-portable: every C
+# test (they hold its im2col + BLAS convolutions to the same results; only the oneDNN-only nc16
+# plans skip, by name) and the CLI's apply script. The other shell scripts drive the same tool
+# code as `make test`'s and are left to it.
+test-portable:
+	$(MAKE) HD_DNNL=0 BUILD=build-portable tests
+	@HDNET=$(abspath build-portable/hdnet) BUILD=$(abspath build-portable) TEST_SCRIPTS="apply_cli" \
+	    sh tests/run.sh $(abspath $(TESTBIN:$(BUILD)/%=build-portable/%))
 
 # Fault injection (docs/reliability.md): kill -9 at random moments during train, decompose and
 # synth (KILLS rounds), then a full disk (a small tmpfs; skipped with a reason where it cannot be
