@@ -417,6 +417,58 @@ static void test_guard(void)
  * forehead up (landmark 10 above, 152 below), skin in a disc of radius 70 with hair above y = 45
  * (or, bald, a disc of radius 90 and no hair; or a fringe of hair across the mesh's top, with skin
  * above it), the mesh's coverage a disc of radius 50 about (100, 110), so its top is at y = 60. */
+/* The eyes' cap: the discs' weights (1 at both eyes' centres, 0 on the nose and the cheeks and
+ * the texture's corners), and the cap on a field: within HD_EYE_CAP of the skin's mean where the
+ * weight is 1, untouched bit for bit where it is 0, and a field already within the cap unchanged. */
+static void test_eye_cap(void)
+{
+    hd_image eyes;
+    CHECK(hd_face_eye_discs_uv(SIDE, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &eyes) == HD_OK);
+    const size_t P = (size_t)SIDE * SIDE;
+    long ones[2] = {0, 0}, partial = 0;
+    int ok = 1;
+    for (int y = 0; y < SIDE; y++)
+        for (int x = 0; x < SIDE; x++) {
+            float w = eyes.data[(size_t)y * SIDE + x];
+            ok &= w >= 0.0f && w <= 1.0f;
+            if (w == 1.0f) ones[x >= SIDE / 2]++;
+            else if (w > 0.0f) partial++;
+        }
+    CHECK(ok);
+    CHECK(ones[0] > 10 && ones[1] > 10); /* one disc on each side */
+    CHECK(partial > ones[0] + ones[1]);   /* a soft edge around them */
+    CHECK(eyes.data[(size_t)(SIDE / 2) * SIDE + SIDE / 2] == 0.0f); /* the nose */
+    CHECK(eyes.data[0] == 0.0f && eyes.data[P - 1] == 0.0f);
+    CHECK(eyes.data[(size_t)(SIDE * 3 / 4) * SIDE + SIDE / 5] == 0.0f); /* a cheek */
+    CHECK(hd_face_eye_discs_uv(SIDE, 0.3f, 0.2f, &eyes) == HD_ERR_ARG);
+    CHECK(hd_face_eye_discs_uv(SIDE, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &eyes) == HD_OK);
+
+    float *lr = malloc(P * sizeof(float)), *known = malloc(P * sizeof(float));
+    const float levels[3] = {0.5f, -0.5f, 0.05f}, cap = logf(HD_EYE_CAP);
+    for (int k = 0; k < 3; k++) {
+        /* the skin (away from the eyes) at 0.1 and 0.3 in turn: its mean is 0.2 */
+        for (size_t p = 0; p < P; p++) {
+            known[p] = eyes.data[p] == 0.0f;
+            lr[p] = eyes.data[p] > 0.0f ? 0.2f + levels[k] : (p % 2 ? 0.1f : 0.3f);
+        }
+        hd_ratio_cap_eyes(lr, known, eyes.data, SIDE);
+        float want = 0.2f + (levels[k] > cap ? cap : levels[k] < -cap ? -cap : levels[k]);
+        int full = 1, kept = 1, between = 1;
+        for (size_t p = 0; p < P; p++) {
+            float w = eyes.data[p];
+            if (w == 1.0f) full &= fabsf(lr[p] - want) < 1e-5f;
+            else if (w == 0.0f) kept &= lr[p] == (p % 2 ? 0.1f : 0.3f);
+            else between &= (lr[p] - want) * (lr[p] - (0.2f + levels[k])) <= 1e-9f;
+        }
+        CHECK(full);
+        CHECK(kept);
+        CHECK(between);
+    }
+    free(lr);
+    free(known);
+    hd_image_free(&eyes);
+}
+
 static void test_forehead_region(void)
 {
     static const int right_eye[] = {33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246};
@@ -494,6 +546,7 @@ int main(void)
     test_rule();
     test_source_light();
     test_guard();
+    test_eye_cap();
     test_forehead_region();
     return test_summary("test_relight_rule");
 }
