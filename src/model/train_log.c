@@ -146,16 +146,16 @@ hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
     _Static_assert(sizeof colours / sizeof colours[0] == HD_TRAIN_LOG_COLS, "one plot colour per loss column");
     const float ink[3] = {0.2f, 0.2f, 0.2f}, grid[3] = {0.85f, 0.85f, 0.85f};
     /* the plot area [left, Wd - right] x [top, Ht - bottom] */
-    const int Wd = 900, Ht = 460, left = 64, right = 12, top = 48, bottom = 40;
+    const int Wd = 900, Ht = 478, left = 64, right = 12, top = 66, bottom = 40;
     const int pw = Wd - left - right, ph = Ht - top - bottom;
     hd_image img = {0};
     hd_status s = hd_image_alloc(&img, Wd, Ht, 3);
     if (s != HD_OK) return s;
     for (size_t i = 0; i < (size_t)3 * Wd * Ht; i++) img.data[i] = 1.0f;
-    /* legend: a swatch and the name of each curve, two rows of seven */
+    /* legend: a swatch and the name of each curve, six to a row */
     for (int c = 0; c < HD_TRAIN_LOG_COLS; c++) {
         const char *name = c < HD_LOSS_TERMS ? hd_loss_names[c] : c == HD_LOSS_TERMS ? "total" : "disc";
-        int x = 8 + (c % 7) * 126, y = 6 + (c / 7) * 18;
+        int x = 8 + (c % 6) * 148, y = 6 + (c / 6) * 18;
         for (int d = 0; d < 3; d++) plot_line(&img, x, y + 4 + d, x + 16, y + 4 + d, colours[c]);
         plot_text(&img, x + 22, y, name, colours[c]);
     }
