@@ -19,6 +19,18 @@ static const int LEFT_BROW[] = {276, 283, 282, 295, 285, 336, 296, 334, 293, 300
 static const int *const REGIONS[] = {RIGHT_EYE, LEFT_EYE, INNER_LIPS, RIGHT_BROW, LEFT_BROW};
 #define NREGIONS ((int)(sizeof REGIONS / sizeof REGIONS[0]))
 
+static const int *const EYES[2] = {RIGHT_EYE, LEFT_EYE};
+
+/* The mean of a contour's points, each at pts + stride * index (x, y first). */
+static void contour_centre(const int *contour, const float *pts, int stride, float centre[2])
+{
+    double x = 0, y = 0;
+    int n = 0;
+    for (; contour[n] >= 0; n++) x += pts[(size_t)stride * contour[n]], y += pts[(size_t)stride * contour[n] + 1];
+    centre[0] = n ? (float)(x / n) : 0.0f;
+    centre[1] = n ? (float)(y / n) : 0.0f;
+}
+
 /* Even-odd point-in-polygon test of (x, y) against n vertices (px, py). */
 static int inside_polygon(const float *px, const float *py, int n, float x, float y)
 {
@@ -88,21 +100,14 @@ hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *wei
     hd_mesh mesh;
     hd_status st = hd_mesh_load_canonical(&mesh);
     if (st != HD_OK) return st;
-    const int *eyes[2] = {RIGHT_EYE, LEFT_EYE};
     float c[2][2];
     for (int e = 0; e < 2 && st == HD_OK; e++) {
-        double x = 0, y = 0;
-        int n = 0;
-        for (; eyes[e][n] >= 0; n++) {
-            int v = eyes[e][n];
-            if (v >= mesh.nv) {
-                st = hd_fail(HD_ERR_FORMAT, "eye discs: the mesh has %d vertices, landmark %d needed", mesh.nv, v);
-                break;
-            }
-            x += mesh.uv[2 * v], y += mesh.uv[2 * v + 1];
-        }
-        c[e][0] = n ? (float)(x / n) * size : 0; /* texel units */
-        c[e][1] = n ? (float)(y / n) * size : 0;
+        for (int n = 0; EYES[e][n] >= 0; n++)
+            if (EYES[e][n] >= mesh.nv)
+                st = hd_fail(HD_ERR_FORMAT, "eye discs: the mesh has %d vertices, landmark %d needed", mesh.nv, EYES[e][n]);
+        if (st != HD_OK) break;
+        contour_centre(EYES[e], mesh.uv, 2, c[e]);
+        c[e][0] *= size, c[e][1] *= size; /* texel units */
     }
     hd_mesh_free(&mesh);
     if (st == HD_OK) st = hd_image_alloc(weight, size, size, 1);
@@ -122,12 +127,5 @@ hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *wei
 
 void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2])
 {
-    const int *eyes[2] = {RIGHT_EYE, LEFT_EYE};
-    for (int e = 0; e < 2; e++) {
-        double x = 0, y = 0;
-        int n = 0;
-        for (; eyes[e][n] >= 0; n++) x += landmarks[eyes[e][n]][0], y += landmarks[eyes[e][n]][1];
-        centres[e][0] = (float)(x / n);
-        centres[e][1] = (float)(y / n);
-    }
+    for (int e = 0; e < 2; e++) contour_centre(EYES[e], &landmarks[0][0], 3, centres[e]);
 }
