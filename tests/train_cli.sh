@@ -63,6 +63,7 @@ grep -q "time limit" out.log || fail "no time-limit message"
 [ -s timed/checkpoint.safetensors ] || fail "no checkpoint at the time limit"
 
 # SIGINT: checkpoint, exit 1, and the run resumes
+rm -rf sig # a loss.csv left by an earlier run would end the wait below before the handler is set
 $H train data -o sig $T --iters 100000 --every 100000 >sig.out 2>sig.err &
 pid=$!
 i=0
@@ -156,6 +157,7 @@ expect 0 $H train data -o same2 $T --iters 1 --every 1 --init run/model.safetens
 [ "$(sed -n 2p same2/loss.csv | cut -d, -f2)" != "$(sed -n 2p same1/loss.csv | cut -d, -f2)" ] ||
     fail "the weight of L_lpair did not change the total"
 expect 2 $H train data -o y --real-same-light
+expect_saying 2 "w-shading-prior must not be negative" $H train data -o y --w-shading-prior -1
 expect 2 $H train data -o y --mirror-pairs
 expect 2 $H train data -o y --real real --real-share 2
 expect 2 $H train data -o y --light-target nope

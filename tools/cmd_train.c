@@ -157,7 +157,13 @@ int cmd_train(int argc, char **argv)
     if (hd_loss_weights_preset(weights, &o.weights) != HD_OK) return cli_usage_error(&spec, "%s", hd_error());
     for (int k = 0; k < HD_LOSS_TERMS; k++) {
         if (isnan(w[k])) continue;
-        if (w[k] < 0) return cli_usage_error(&spec, "--w-%s must not be negative", hd_loss_names[k]);
+        if (w[k] < 0) {
+            char opt[40]; /* the option's name: the term's with '-' for '_' */
+            snprintf(opt, sizeof opt, "%s", hd_loss_names[k]);
+            for (char *c = opt; *c; c++)
+                if (*c == '_') *c = '-';
+            return cli_usage_error(&spec, "--w-%s must not be negative", opt);
+        }
         o.weights.w[k] = w[k];
     }
     o.data_dir = data;
