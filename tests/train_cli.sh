@@ -157,6 +157,21 @@ expect 0 $H train data -o same2 $T --iters 1 --every 1 --init run/model.safetens
 [ "$(sed -n 2p same2/loss.csv | cut -d, -f2)" != "$(sed -n 2p same1/loss.csv | cut -d, -f2)" ] ||
     fail "the weight of L_lpair did not change the total"
 expect 2 $H train data -o y --real-same-light
+# a run from before light_pair (its loss.csv without that column) resumes into today's columns:
+# the old rows keep their values, light_pair reads 0 there, every row has 15 fields
+expect 0 $H train data -o oldcsv $T --iters 2 --every 2
+awk -F, -v OFS=, '{ $13 = ""; sub(",,", ","); print }' oldcsv/loss.csv > oldcsv/old.csv
+head -1 oldcsv/old.csv | grep -q ",shading_prior,disc,seconds$" || fail "the old-format loss.csv was not made: $(head -1 oldcsv/old.csv)"
+cp oldcsv/loss.csv oldcsv/new.csv
+mv oldcsv/old.csv oldcsv/loss.csv
+expect 0 $H train data -o oldcsv $T --iters 3 --every 3 --resume
+awk -F, 'NF != 15 { exit 1 }' oldcsv/loss.csv || fail "resumed rows with the wrong column count: $(cat oldcsv/loss.csv)"
+[ "$(head -1 oldcsv/loss.csv)" = "$(head -1 oldcsv/new.csv)" ] || fail "the resumed header is not today's"
+for r in 2 3; do
+    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f1-12,14-15)" = "$(sed -n ${r}p oldcsv/new.csv | cut -d, -f1-12,14-15)" ] ||
+        fail "row $r of an old-format loss.csv changed on resume: $(sed -n ${r}p oldcsv/loss.csv)"
+    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f13)" = 0 ] || fail "an old row's light_pair is not 0"
+done
 expect_saying 2 "w-shading-prior must not be negative" $H train data -o y --w-shading-prior -1
 expect 2 $H train data -o y --mirror-pairs
 expect 2 $H train data -o y --real real --real-share 2

@@ -29,8 +29,36 @@ static void csv_header(FILE *f)
     fprintf(f, ",disc,seconds\n");
 }
 
+/* The columns of loss.csv: iteration, total, the terms, disc, seconds. */
+#define CSV_COLS (HD_LOSS_TERMS + 4)
+
+/* The column named name in today's loss.csv, or -1. */
+static int csv_column(const char *name)
+{
+    if (strcmp(name, "iteration") == 0) return 0;
+    if (strcmp(name, "total") == 0) return 1;
+    for (int k = 0; k < HD_LOSS_TERMS; k++)
+        if (strcmp(name, hd_loss_names[k]) == 0) return 2 + k;
+    if (strcmp(name, "disc") == 0) return HD_LOSS_TERMS + 2;
+    if (strcmp(name, "seconds") == 0) return HD_LOSS_TERMS + 3;
+    return -1;
+}
+
+/* Splits line at its commas in place; old column c goes to tok[map[c]] (map[c] < 0: dropped). */
+static void csv_split(char *line, const int *map, int nmap, const char *tok[CSV_COLS])
+{
+    for (int c = 0; c < CSV_COLS; c++) tok[c] = NULL;
+    for (int c = 0; line; c++) {
+        char *comma = strchr(line, ',');
+        if (comma) *comma = '\0';
+        if (c < nmap && map[c] >= 0) tok[map[c]] = line;
+        line = comma ? comma + 1 : NULL;
+    }
+}
+
 /* Rewrites loss.csv keeping rows up to `iteration` (a resumed run continues from its checkpoint)
- * and loads them into the history. */
+ * and loads them into the history. The columns are matched by the old file's header, so a run
+ * from before a term was added resumes into today's columns (the new term's old rows read 0). */
 static hd_status csv_restore(const char *path, long iteration, hd_train_log *h)
 {
     char *data = NULL;
@@ -44,27 +72,41 @@ static hd_status csv_restore(const char *path, long iteration, hd_train_log *h)
         return s;
     }
     csv_header(af.f);
-    char *line = data ? strchr(data, '\n') : NULL; /* skip the header */
-    while (line && *++line) {
+    int map[4 * CSV_COLS], nmap = 0;
+    char *line = data;
+    if (line) { /* the header: old column -> today's */
         char *next = strchr(line, '\n');
         if (next) *next = '\0';
-        char *end;
-        long it = strtol(line, &end, 10);
-        if (end != line && it >= 1 && it <= iteration) {
+        for (char *name = line; name && nmap < 4 * CSV_COLS;) {
+            char *comma = strchr(name, ',');
+            if (comma) *comma = '\0';
+            map[nmap++] = csv_column(name);
+            name = comma ? comma + 1 : NULL;
+        }
+        line = next ? next + 1 : NULL;
+    }
+    while (line && *line) {
+        char *next = strchr(line, '\n');
+        if (next) *next = '\0';
+        const char *tok[CSV_COLS];
+        csv_split(line, map, nmap, tok);
+        char *end = NULL;
+        long it = tok[0] ? strtol(tok[0], &end, 10) : 0;
+        if (tok[0] && end != tok[0] && it >= 1 && it <= iteration) {
             float row[HD_TRAIN_LOG_COLS] = {0};
-            const char *p = end;
-            /* columns: total, terms..., disc */
-            for (int c = 0; c < HD_TRAIN_LOG_COLS && *p == ','; c++) {
-                float v = strtof(p + 1, &end);
-                p = end;
-                if (c == 0) row[HD_LOSS_TERMS] = v;
-                else if (c <= HD_LOSS_TERMS) row[c - 1] = v;
-                else row[HD_LOSS_TERMS + 1] = v;
+            fprintf(af.f, "%ld", it);
+            for (int c = 1; c < CSV_COLS; c++) {
+                const char *v = tok[c] && *tok[c] ? tok[c] : "0";
+                fprintf(af.f, ",%s", v);
+                float x = strtof(v, NULL);
+                if (c == 1) row[HD_LOSS_TERMS] = x; /* total */
+                else if (c < HD_LOSS_TERMS + 2) row[c - 2] = x;
+                else if (c == HD_LOSS_TERMS + 2) row[HD_LOSS_TERMS + 1] = x; /* disc */
             }
-            fprintf(af.f, "%s\n", line);
+            fprintf(af.f, "\n");
             if ((s = history_push(h, row)) != HD_OK) break;
         }
-        line = next;
+        line = next ? next + 1 : NULL;
     }
     free(data);
     if (s != HD_OK) {
