@@ -1039,30 +1039,22 @@ static void test_light_from_image(void)
 
 /* ---- the loss plot: labelled axes and a legend, the curves inside the plot area */
 
-/* Pixels of the box that are not near white (any colour). */
-static int ink_in(const hd_image *img, int x0, int y0, int x1, int y1)
+/* Pixels of the box with all channels below t (dark) or, with any, at least one (ink of any colour). */
+static int count_in(const hd_image *img, int x0, int y0, int x1, int y1, float t, int any)
 {
     size_t HW = (size_t)img->width * img->height;
     int n = 0;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t p = (size_t)y * img->width + x;
-            n += img->data[p] < 0.8f || img->data[HW + p] < 0.8f || img->data[2 * HW + p] < 0.8f;
+            int below = (img->data[p] < t) + (img->data[HW + p] < t) + (img->data[2 * HW + p] < t);
+            n += any ? below > 0 : below == 3;
         }
     return n;
 }
 
-static int dark_in(const hd_image *img, int x0, int y0, int x1, int y1)
-{
-    size_t HW = (size_t)img->width * img->height;
-    int n = 0;
-    for (int y = y0; y < y1; y++)
-        for (int x = x0; x < x1; x++) {
-            size_t p = (size_t)y * img->width + x;
-            n += img->data[p] < 0.5f && img->data[HW + p] < 0.5f && img->data[2 * HW + p] < 0.5f;
-        }
-    return n;
-}
+static int dark_in(const hd_image *img, int x0, int y0, int x1, int y1) { return count_in(img, x0, y0, x1, y1, 0.5f, 0); }
+static int ink_in(const hd_image *img, int x0, int y0, int x1, int y1) { return count_in(img, x0, y0, x1, y1, 0.8f, 1); }
 
 static void test_loss_plot(void)
 {

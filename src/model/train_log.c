@@ -44,16 +44,17 @@ static int csv_column(const char *name)
     return -1;
 }
 
-/* Splits line at its commas in place; old column c goes to tok[map[c]] (map[c] < 0: dropped). */
-static void csv_split(char *line, const int *map, int nmap, const char *tok[CSV_COLS])
+/* Splits line at its commas in place into at most max fields; returns how many. */
+static int csv_fields(char *line, char **field, int max)
 {
-    for (int c = 0; c < CSV_COLS; c++) tok[c] = NULL;
-    for (int c = 0; line; c++) {
+    int n = 0;
+    while (line && n < max) {
         char *comma = strchr(line, ',');
         if (comma) *comma = '\0';
-        if (c < nmap && map[c] >= 0) tok[map[c]] = line;
+        field[n++] = line;
         line = comma ? comma + 1 : NULL;
     }
+    return n;
 }
 
 /* Rewrites loss.csv keeping rows up to `iteration` (a resumed run continues from its checkpoint)
@@ -72,24 +73,23 @@ static hd_status csv_restore(const char *path, long iteration, hd_train_log *h)
         return s;
     }
     csv_header(af.f);
-    int map[4 * CSV_COLS], nmap = 0;
+    int map[4 * CSV_COLS], nmap = 0; /* old column -> today's (-1: dropped) */
+    char *field[4 * CSV_COLS];
     char *line = data;
-    if (line) { /* the header: old column -> today's */
+    if (line) { /* the header */
         char *next = strchr(line, '\n');
         if (next) *next = '\0';
-        for (char *name = line; name && nmap < 4 * CSV_COLS;) {
-            char *comma = strchr(name, ',');
-            if (comma) *comma = '\0';
-            map[nmap++] = csv_column(name);
-            name = comma ? comma + 1 : NULL;
-        }
+        nmap = csv_fields(line, field, 4 * CSV_COLS);
+        for (int c = 0; c < nmap; c++) map[c] = csv_column(field[c]);
         line = next ? next + 1 : NULL;
     }
     while (line && *line) {
         char *next = strchr(line, '\n');
         if (next) *next = '\0';
-        const char *tok[CSV_COLS];
-        csv_split(line, map, nmap, tok);
+        const char *tok[CSV_COLS] = {0};
+        int n = csv_fields(line, field, nmap);
+        for (int c = 0; c < n; c++)
+            if (map[c] >= 0) tok[map[c]] = field[c];
         char *end = NULL;
         long it = tok[0] ? strtol(tok[0], &end, 10) : 0;
         if (tok[0] && end != tok[0] && it >= 1 && it <= iteration) {
