@@ -249,6 +249,13 @@ hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask
  * no pixel in the mask the answer is the prior (when strength > 0). */
 hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
                            const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS]);
+/* The best light of hd_light_from_direction's family (an ambient level plus one distant light
+ * of intensity >= 0, from within 100 degrees of the viewer) for the masked shading: argmin over that family of
+ * sum_p m_p (b(n_p).l - s_p)^2. A face's normals fill only part of the sphere, so a free 9-number
+ * fit swings the coefficients they hardly see; this fit has 4 numbers, which they pin down. With
+ * no pixel in the mask the answer is the zero light. */
+hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                         float light[HD_SH_COEFFS]);
 /* Light files: 9 numbers, DPR order. Errors name the file and line. */
 /* Largest |coefficient| a light file may hold: the shading of such a light (at most about
  * 10 x HD_LIGHT_MAX_COEFF) and everything computed from it stay far from float overflow. */
@@ -373,7 +380,7 @@ typedef enum hd_source_light {
     HD_SOURCE_LNET
 } hd_source_light;
 
-/* HD_SOURCE_FIT's pull toward L-Net's light (hd_sh_fit_toward's strength). */
+/* HD_SOURCE_FIT's pull toward the face's lobe fit (hd_sh_fit_lobe; hd_sh_fit_toward's strength). */
 #define HD_SOURCE_PRIOR 0.1f
 /* The ratio rule's guard g = HD_RATIO_GUARD x the face's mean source shading over its skin. */
 #define HD_RATIO_GUARD 0.01f
@@ -391,9 +398,10 @@ typedef struct hd_apply_request {
 } hd_apply_request;
 
 /* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies
- * d->light; HD_SOURCE_FIT fits d->shading on d->normal (hd_sh_fit) over the texels where mask
+ * d->light; HD_SOURCE_FIT fits d->shading on d->normal over the texels where mask
  * (1 channel, any size, resized to the decomposition's; NULL: all) is > 0.5 outside the face
- * regions a face model does not explain. */
+ * regions a face model does not explain: the least-squares light pulled (HD_SOURCE_PRIOR) toward
+ * the best ambient + distant light (hd_sh_fit_lobe) of the same shading. */
 hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
                         float light[HD_SH_COEFFS]);
 

@@ -2,7 +2,8 @@
  * of shading, never by dividing the photo by the network's shading:
  *     out = I * r,   r = (s(N, l_target) + g) / (s(N, l_source) + g)
  * with N the predicted normals, l_source the face's own light (hd_face_light: the least-squares
- * light of the predicted shading on N over the skin, or L-Net's) and g a guard (a share of the
+ * light of the predicted shading on N over the skin, pulled toward the best ambient + distant
+ * light of the same shading; or L-Net's) and g a guard (a share of the
  * face's mean source shading, HD_RATIO_GUARD by default) where the denominator is small. r is exactly 1 when the
  * light does not change, is one factor for all three channels under a grey light, and is smooth
  * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
@@ -67,9 +68,10 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
     if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "face light: a mask has 1 channel");
     hd_image skin = {0};
     hd_status st = skin_at(mask, size, &skin);
+    float lobe[HD_SH_COEFFS];
+    if (st == HD_OK) st = hd_sh_fit_lobe(d->normal.data, d->shading.data, skin.data, size * size, lobe);
     if (st == HD_OK)
-        st = hd_sh_fit_toward(d->normal.data, d->shading.data, skin.data, size * size, d->light, HD_SOURCE_PRIOR,
-                              light);
+        st = hd_sh_fit_toward(d->normal.data, d->shading.data, skin.data, size * size, lobe, HD_SOURCE_PRIOR, light);
     hd_image_free(&skin);
     return st;
 }

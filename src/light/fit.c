@@ -5,13 +5,22 @@
  * (a handful of pixels, all normals alike) still gives a finite answer. The fit toward a prior
  * light adds strength * sum_p m_p * |l - prior|^2: the coefficients the normals pin down come from
  * the shading, those they hardly see (a face's normals fill only part of the sphere, so 1, z and
- * z^2 are nearly collinear there) stay near the prior. */
+ * z^2 are nearly collinear there) stay near the prior. The lobe fit (hd_sh_fit_lobe) is the best
+ * light of hd_light_from_direction's family, an ambient level plus one distant light of intensity
+ * >= 0 from within 100 degrees of the viewer: a search over directions, each with its two amplitudes in closed form from the same normal
+ * equations. Its 4 numbers are what a face's normals do pin down, so it is the prior the face's
+ * own light is pulled toward (src/apply/rule.c). */
 #include <math.h>
 #include <string.h>
 #include "core/core.h"
 #include "light/light.h"
 
 #define K HD_SH_COEFFS
+/* the lobe fit's first search: directions of a Fibonacci sphere (about 4.5 degrees apart) */
+#define HD_LOBE_DIRECTIONS 2000
+/* the lobe's direction stays within 100 degrees of the viewer (cos 100 = -0.1736): from further
+ * behind, its light on the face's normals is what an ambient term and a weaker frontal light give */
+#define HD_LOBE_MIN_Z (-0.17364818f)
 
 /* Solves (A) x = r in place for symmetric positive definite A (lower Cholesky, A = L L^T).
  * Returns 0 on success, -1 if a pivot is not positive (A not numerically positive definite). */
@@ -43,24 +52,14 @@ static int cholesky_solve(double A[K][K], double r[K], double x[K])
     return 0;
 }
 
-hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask, int npix,
-                    float light[HD_SH_COEFFS])
+/* The masked normal equations: A = sum_p m_p b b^T (both triangles), r = sum_p m_p s_p b, with
+ * the count of pixels used (m_p > 0) and their total weight. */
+static hd_status normal_equations(const float *normal, const float *shading, const float *mask, int npix,
+                                  double A[K][K], double r[K], long *used_out, double *weight_out)
 {
-    return hd_sh_fit_toward(normal, shading, mask, npix, NULL, 0.0f, light);
-}
-
-hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
-                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS])
-{
-    float pull[K] = {0};
-    if (prior) memcpy(pull, prior, sizeof pull);
-    memset(light, 0, K * sizeof *light);
-    if (npix < 0 || (npix > 0 && (!normal || !shading)) || !(strength >= 0.0f) || !isfinite(strength))
-        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d, strength %g)", npix, strength);
-    for (int k = 0; k < K; k++)
-        if (!isfinite(pull[k])) return hd_fail(HD_ERR_NUMERIC, "sh fit: prior coefficient %d is not finite", k);
+    memset(A, 0, sizeof(double) * K * K);
+    memset(r, 0, sizeof(double) * K);
     const float *nx = normal, *ny = normal + npix, *nz = normal + 2 * (size_t)npix;
-    double A[K][K] = {{0}}, r[K] = {0};
     long used = 0;
     double weight = 0.0;
     for (int p = 0; p < npix; p++) {
@@ -82,15 +81,39 @@ hd_status hd_sh_fit_toward(const float *normal, const float *shading, const floa
         used++;
         weight += m;
     }
+    for (int i = 0; i < K; i++)
+        for (int j = 0; j < i; j++) A[j][i] = A[i][j];
+    *used_out = used;
+    *weight_out = weight;
+    return HD_OK;
+}
+
+hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask, int npix,
+                    float light[HD_SH_COEFFS])
+{
+    return hd_sh_fit_toward(normal, shading, mask, npix, NULL, 0.0f, light);
+}
+
+hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
+                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS])
+{
+    float pull[K] = {0};
+    if (prior) memcpy(pull, prior, sizeof pull);
+    memset(light, 0, K * sizeof *light);
+    if (npix < 0 || (npix > 0 && (!normal || !shading)) || !(strength >= 0.0f) || !isfinite(strength))
+        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d, strength %g)", npix, strength);
+    for (int k = 0; k < K; k++)
+        if (!isfinite(pull[k])) return hd_fail(HD_ERR_NUMERIC, "sh fit: prior coefficient %d is not finite", k);
+    double A[K][K], r[K], weight;
+    long used;
+    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
+    if (st != HD_OK) return st;
     if (used == 0) { /* nothing to fit: the prior (the zero light without one) */
         if (strength > 0.0f) memcpy(light, pull, sizeof pull);
         return HD_OK;
     }
     double trace = 0.0;
-    for (int i = 0; i < K; i++) {
-        for (int j = 0; j < i; j++) A[j][i] = A[i][j];
-        trace += A[i][i];
-    }
+    for (int i = 0; i < K; i++) trace += A[i][i];
     if (!isfinite(trace)) return hd_fail(HD_ERR_NUMERIC, "sh fit: normal equations overflow");
     const double ridge = 1e-6 * trace / K, lambda = (double)strength * weight;
     for (int i = 0; i < K; i++) {
@@ -105,5 +128,74 @@ hd_status hd_sh_fit_toward(const float *normal, const float *shading, const floa
             return hd_fail(HD_ERR_NUMERIC, "sh fit: the solution is not finite");
         light[i] = (float)x[i];
     }
+    return HD_OK;
+}
+
+/* The lobe fit's cost at one direction: the best ambient a and intensity i >= 0 of
+ * a * e0 / c0 + i * v (v: the unit distant light from (az, el)) by the 2 x 2 normal equations, and
+ * the objective l^T A l - 2 r^T l (the squared residual less a constant) of that light. */
+static double lobe_cost(const double A[K][K], const double r[K], float az, float el, double *ambient,
+                        double *intensity)
+{
+    float vf[K];
+    hd_light_from_direction(az, el, 1.0f, 0.0f, vf);
+    double v[K], Av0 = 0.0, vAv = 0.0, rv = 0.0;
+    for (int i = 0; i < K; i++) v[i] = vf[i];
+    for (int i = 0; i < K; i++) {
+        double Avi = 0.0;
+        for (int j = 0; j < K; j++) Avi += A[i][j] * v[j];
+        vAv += v[i] * Avi;
+        rv += r[i] * v[i];
+        if (i == 0) Av0 = Avi;
+    }
+    const double c0 = HD_SH_C0, uAu = A[0][0] / (c0 * c0), uAv = Av0 / c0, ru = r[0] / c0;
+    const double det = uAu * vAv - uAv * uAv;
+    double a = ru / uAu, in = 0.0;
+    if (det > 1e-12 * uAu * vAv) {
+        double ai = (vAv * ru - uAv * rv) / det, ii = (uAu * rv - uAv * ru) / det;
+        if (ii > 0.0) a = ai, in = ii;
+    }
+    *ambient = a, *intensity = in;
+    return a * a * uAu + 2.0 * a * in * uAv + in * in * vAv - 2.0 * (a * ru + in * rv);
+}
+
+hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                         float light[HD_SH_COEFFS])
+{
+    memset(light, 0, K * sizeof *light);
+    if (npix < 0 || (npix > 0 && (!normal || !shading)))
+        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d)", npix);
+    double A[K][K], r[K], weight;
+    long used;
+    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
+    if (st != HD_OK || used == 0) return st; /* nothing to fit: the zero light */
+    if (!isfinite(A[0][0]) || !(A[0][0] > 0.0)) return hd_fail(HD_ERR_NUMERIC, "sh fit: normal equations overflow");
+    /* every direction of a Fibonacci sphere, then a pattern search in azimuth and elevation */
+    float best_az = 0.0f, best_el = 0.0f;
+    double best = INFINITY, a, in;
+    for (int k = 0; k < HD_LOBE_DIRECTIONS; k++) {
+        double z = 1.0 - 2.0 * (k + 0.5) / HD_LOBE_DIRECTIONS, rho = sqrt(fmax(0.0, 1.0 - z * z));
+        double phi = M_PI * (1.0 + sqrt(5.0)) * (k + 0.5), x = rho * cos(phi), y = rho * sin(phi);
+        if (z < HD_LOBE_MIN_Z) continue;
+        float az = (float)(atan2(x, z) * (180.0 / M_PI)), el = (float)(asin(fmin(1.0, fmax(-1.0, y))) * (180.0 / M_PI));
+        double c = lobe_cost(A, r, az, el, &a, &in);
+        if (c < best) best = c, best_az = az, best_el = el;
+    }
+    for (float step = 4.0f; step > 0.01f; step *= 0.5f) {
+        for (int moved = 1, rounds = 0; moved && rounds < 1000; rounds++) {
+            moved = 0;
+            const float daz[4] = {step, -step, 0.0f, 0.0f}, del[4] = {0.0f, 0.0f, step, -step};
+            for (int t = 0; t < 4; t++) {
+                float az = best_az + daz[t], el = fminf(90.0f, fmaxf(-90.0f, best_el + del[t]));
+                if (cos(el * (M_PI / 180.0)) * cos(az * (M_PI / 180.0)) < HD_LOBE_MIN_Z) continue;
+                double c = lobe_cost(A, r, az, el, &a, &in);
+                if (c < best) best = c, best_az = az, best_el = el, moved = 1;
+            }
+        }
+    }
+    lobe_cost(A, r, best_az, best_el, &a, &in);
+    if (!isfinite(a) || !isfinite(in) || fabs(a) > 1e30 || in > 1e30)
+        return hd_fail(HD_ERR_NUMERIC, "sh fit: the lobe fit is not finite");
+    hd_light_from_direction(best_az, best_el, (float)in, (float)a, light);
     return HD_OK;
 }
