@@ -438,7 +438,8 @@ hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image
 hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_image *mask,
                            const hd_image *ref, hd_brightness brightness, hd_image *out);
 /* The face's own light, as the ratio rule takes it (hd_face_light with HD_SOURCE_FIT: the fit of
- * the predicted shading on the predicted normals, pulled toward L-Net's; over the whole texture
+ * the predicted shading on the predicted normals, pulled toward its best ambient + distant light
+ * (hd_sh_fit_lobe); over the whole texture
  * without the face regions). decompose's light stays L-Net's. */
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
 /* The same with a mask (1 channel, any size; NULL: all ones) and a choice of source. */

@@ -181,7 +181,7 @@ hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float 
         double c = lobe_cost(A, r, az, el, &a, &in);
         if (c < best) best = c, best_az = az, best_el = el;
     }
-    for (float step = 4.0f; step > 0.01f; step *= 0.5f) {
+    for (float step = 4.0f; step > 1e-4f; step *= 0.5f) {
         for (int moved = 1, rounds = 0; moved && rounds < 1000; rounds++) {
             moved = 0;
             const float daz[4] = {step, -step, 0.0f, 0.0f}, del[4] = {0.0f, 0.0f, step, -step};
