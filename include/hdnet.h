@@ -250,8 +250,8 @@ hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask
 hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
                            const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS]);
 /* The best light of hd_light_from_direction's family (an ambient level plus one distant light
- * of intensity >= 0, from within 100 degrees of the viewer) for the masked shading: argmin over that family of
- * sum_p m_p (b(n_p).l - s_p)^2. A face's normals fill only part of the sphere, so a free 9-number
+ * of intensity >= 0, from within 100 degrees of the viewer) for the masked shading: argmin over
+ * that family of sum_p m_p (b(n_p).l - s_p)^2. A face's normals fill only part of the sphere, so a free 9-number
  * fit swings the coefficients they hardly see; this fit has 4 numbers, which they pin down. With
  * no pixel in the mask the answer is the zero light. */
 hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
@@ -439,8 +439,8 @@ hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_imag
                            const hd_image *ref, hd_brightness brightness, hd_image *out);
 /* The face's own light, as the ratio rule takes it (hd_face_light with HD_SOURCE_FIT: the fit of
  * the predicted shading on the predicted normals, pulled toward its best ambient + distant light
- * (hd_sh_fit_lobe); over the whole texture
- * without the face regions). decompose's light stays L-Net's. */
+ * (hd_sh_fit_lobe); over the whole texture without the face regions). decompose's light stays
+ * L-Net's. */
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
 /* The same with a mask (1 channel, any size; NULL: all ones) and a choice of source. */
 hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const hd_image *mask, hd_source_light source,

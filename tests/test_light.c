@@ -1,7 +1,8 @@
 /* test_light.c: the spherical-harmonics lighting core against independent truth: SPEC section 2's
  * test vectors, analytic cases (a constant light, a distant light peaking at its direction), the
  * least-squares fit recovering lights from their own renderings (with noise, small and empty
- * masks), the ambient + distant light fit, light files (round trip and every kind of bad file), the presets and the sphere. */
+ * masks), the ambient + distant light fit,
+ * light files (round trip and every kind of bad file), the presets and the sphere. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"

@@ -7,9 +7,9 @@
  * the shading, those they hardly see (a face's normals fill only part of the sphere, so 1, z and
  * z^2 are nearly collinear there) stay near the prior. The lobe fit (hd_sh_fit_lobe) is the best
  * light of hd_light_from_direction's family, an ambient level plus one distant light of intensity
- * >= 0 from within 100 degrees of the viewer: a search over directions, each with its two amplitudes in closed form from the same normal
- * equations. Its 4 numbers are what a face's normals do pin down, so it is the prior the face's
- * own light is pulled toward (src/apply/rule.c). */
+ * >= 0 from within 100 degrees of the viewer: a search over directions, each with its two
+ * amplitudes in closed form from the same normal equations. Its 4 numbers are what a face's normals
+ * do pin down, so it is the prior the face's own light is pulled toward (src/apply/rule.c). */
 #include <math.h>
 #include <string.h>
 #include "core/core.h"
@@ -169,7 +169,8 @@ hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float 
     long used;
     hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
     if (st != HD_OK || used == 0) return st; /* nothing to fit: the zero light */
-    if (!isfinite(A[0][0]) || !(A[0][0] > 0.0)) return hd_fail(HD_ERR_NUMERIC, "sh fit: normal equations overflow");
+    if (!isfinite(A[0][0]) || !(A[0][0] > 0.0))
+        return hd_fail(HD_ERR_NUMERIC, "sh fit: normal equations overflow");
     /* every direction of a Fibonacci sphere, then a pattern search in azimuth and elevation */
     float best_az = 0.0f, best_el = 0.0f;
     double best = INFINITY, a, in;
@@ -177,7 +178,8 @@ hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float 
         double z = 1.0 - 2.0 * (k + 0.5) / HD_LOBE_DIRECTIONS, rho = sqrt(fmax(0.0, 1.0 - z * z));
         double phi = M_PI * (1.0 + sqrt(5.0)) * (k + 0.5), x = rho * cos(phi), y = rho * sin(phi);
         if (z < HD_LOBE_MIN_Z) continue;
-        float az = (float)(atan2(x, z) * (180.0 / M_PI)), el = (float)(asin(fmin(1.0, fmax(-1.0, y))) * (180.0 / M_PI));
+        float az = (float)(atan2(x, z) * (180.0 / M_PI));
+        float el = (float)(asin(fmin(1.0, fmax(-1.0, y))) * (180.0 / M_PI));
         double c = lobe_cost(A, r, az, el, &a, &in);
         if (c < best) best = c, best_az = az, best_el = el;
     }
