@@ -70,14 +70,23 @@ static void test_constant_and_linear(void)
 }
 
 /* Fills planar normals (hemisphere) and the shading of `light` plus Gaussian noise of sigma. */
-static void render(hd_rng *r, int npix, const float light[9], float sigma, float *normal, float *shading)
+/* npix normals on the visible hemisphere with z >= min_z (0.5: within 60 degrees of the viewer, about
+ * what a face's normals fill), each shaded by light plus Gaussian noise of sigma. */
+static void render_cone(hd_rng *r, int npix, const float light[9], float sigma, float min_z, float *normal,
+                        float *shading)
 {
     for (int p = 0; p < npix; p++) {
         float n[3];
-        random_normal(r, 1, n);
+        do random_normal(r, 1, n);
+        while (n[2] < min_z);
         for (int c = 0; c < 3; c++) normal[c * npix + p] = n[c];
         shading[p] = hd_sh_shade(light, n) + sigma * hd_rng_normal(r);
     }
+}
+
+static void render(hd_rng *r, int npix, const float light[9], float sigma, float *normal, float *shading)
+{
+    render_cone(r, npix, light, sigma, -1.0f, normal, shading);
 }
 
 static double max_abs_diff(const float *a, const float *b, int n)
@@ -170,32 +179,13 @@ static void test_fit_toward(void)
     free(mask);
 }
 
-/* npix normals within 60 degrees of the viewer (a face's normals fill about this cone), each
- * shaded by light plus Gaussian noise of sigma. */
-static void render_cone(hd_rng *r, int npix, const float light[9], float sigma, float *normal, float *shading)
-{
-    for (int p = 0; p < npix; p++) {
-        float n[3];
-        do random_normal(r, 1, n);
-        while (n[2] < 0.5f);
-        for (int c = 0; c < 3; c++) normal[c * npix + p] = n[c];
-        shading[p] = hd_sh_shade(light, n) + sigma * hd_rng_normal(r);
-    }
-}
-
-static double relative_difference(const float a[9], const float b[9])
-{
-    double d = 0, n = 0;
-    for (int k = 0; k < 9; k++) d += ((double)a[k] - b[k]) * ((double)a[k] - b[k]), n += (double)a[k] * a[k];
-    return sqrt(d / n);
-}
-
 /* The lobe fit: it recovers an ambient + distant light from its own rendering on a cone of
  * normals (front, side, from below, just behind the profile); a light from behind the head is
  * answered from the front; its answer beats every neighbouring
  * light of the family; it scales with the shading; a flat shading is ambient only; two noisy
- * halves of one face agree far better than two free 9-number fits do (what it is for); an empty
- * mask gives the zero light and bad input is refused. */
+ * halves of one face agree far better than two free 9-number fits do (what it is for); the
+ * one-pass fit toward it equals the two calls; an empty mask gives the zero light and bad input is
+ * refused. */
 static void test_fit_lobe(void)
 {
     enum { NPIX = 3000 };
@@ -208,18 +198,18 @@ static void test_fit_lobe(void)
                                {10, -50, 0.6f, 0.7f}, {95, 30, 0.8f, 0.6f}};
     for (int c = 0; c < 5; c++) {
         hd_light_from_direction(cases[c][0], cases[c][1], cases[c][2], cases[c][3], light);
-        render_cone(&r, NPIX, light, 0.0f, normal, shading);
+        render_cone(&r, NPIX, light, 0.0f, 0.5f, normal, shading);
         CHECK(hd_sh_fit_lobe(normal, shading, NULL, NPIX, fit) == HD_OK);
         CHECK(max_abs_diff(fit, light, 9) <= 2e-3);
     }
     /* a light from behind: the fit's lobe is in front (l1 < 0: the light comes toward the screen) */
     hd_light_from_direction(180, 0, 1.0f, 0.8f, light);
-    render_cone(&r, NPIX, light, 0.0f, normal, shading);
+    render_cone(&r, NPIX, light, 0.0f, 0.5f, normal, shading);
     CHECK(hd_sh_fit_lobe(normal, shading, NULL, NPIX, fit) == HD_OK);
     CHECK(fit[1] <= 1e-6f);
     /* with noise, the answer is the family's best: nudging direction or amplitudes raises the cost */
     hd_light_from_direction(25, 10, 1.1f, 0.5f, light);
-    render_cone(&r, NPIX, light, 0.05f, normal, shading);
+    render_cone(&r, NPIX, light, 0.05f, 0.5f, normal, shading);
     for (int p = 0; p < NPIX; p++) mask[p] = p % 3 ? 1.0f : 0.5f;
     CHECK(hd_sh_fit_lobe(normal, shading, mask, NPIX, fit) == HD_OK);
     double l[9];
@@ -238,7 +228,7 @@ static void test_fit_lobe(void)
                     beaten += fit_objective(normal, shading, mask, NPIX, fit, 0.0, m) < J - 1e-9 * fabs(J);
                 }
     CHECK(beaten == 0);
-    CHECK(relative_difference(light, fit) < 0.05);
+    CHECK(hd_light_difference(light, fit) < 0.05);
     /* twice the shading, twice the light */
     for (int p = 0; p < NPIX; p++) shading[p] *= 2.0f;
     CHECK(hd_sh_fit_lobe(normal, shading, mask, NPIX, other) == HD_OK);
@@ -250,7 +240,7 @@ static void test_fit_lobe(void)
     for (int k = 1; k < 9; k++) CHECK_NEAR(other[k], 0.0, 1e-4);
     /* two halves of a noisy face: the lobe fits agree, the free fits swing the coefficients the
      * cone hardly sees */
-    render_cone(&r, NPIX, light, 0.1f, normal, shading);
+    render_cone(&r, NPIX, light, 0.1f, 0.5f, normal, shading);
     for (int p = 0; p < NPIX; p++) mask[p] = p < NPIX / 2;
     float lobe_a[9], lobe_b[9], free_a[9], free_b[9];
     CHECK(hd_sh_fit_lobe(normal, shading, mask, NPIX, lobe_a) == HD_OK);
@@ -258,14 +248,22 @@ static void test_fit_lobe(void)
     for (int p = 0; p < NPIX; p++) mask[p] = p >= NPIX / 2;
     CHECK(hd_sh_fit_lobe(normal, shading, mask, NPIX, lobe_b) == HD_OK);
     CHECK(hd_sh_fit(normal, shading, mask, NPIX, free_b) == HD_OK);
-    const double lobe_diff = relative_difference(lobe_a, lobe_b), free_diff = relative_difference(free_a, free_b);
+    const double lobe_diff = hd_light_difference(lobe_a, lobe_b), free_diff = hd_light_difference(free_a, free_b);
     printf("lobe fit, two noisy halves of a cone: lights differ by %.4f (free fits: %.4f)\n", lobe_diff, free_diff);
     CHECK(lobe_diff < 0.05);
     CHECK(lobe_diff < 0.25 * free_diff);
+    /* the face's own light in one pass is the fit toward the lobe fit, bit for bit */
+    float both[9];
+    CHECK(hd_sh_fit_toward(normal, shading, mask, NPIX, lobe_b, 0.1f, other) == HD_OK);
+    CHECK(hd_sh_fit_toward_lobe(normal, shading, mask, NPIX, 0.1f, both) == HD_OK);
+    CHECK(memcmp(both, other, sizeof both) == 0);
+    CHECK(hd_sh_fit_toward_lobe(normal, shading, mask, NPIX, -1.0f, both) == HD_ERR_ARG);
     /* nothing to fit, and bad input */
     for (int p = 0; p < NPIX; p++) mask[p] = 0.0f;
     CHECK(hd_sh_fit_lobe(normal, shading, mask, NPIX, other) == HD_OK);
     for (int k = 0; k < 9; k++) CHECK(other[k] == 0.0f);
+    CHECK(hd_sh_fit_toward_lobe(normal, shading, mask, NPIX, 0.1f, both) == HD_OK);
+    for (int k = 0; k < 9; k++) CHECK(both[k] == 0.0f);
     CHECK(hd_sh_fit_lobe(normal, shading, NULL, -1, other) == HD_ERR_ARG);
     CHECK(hd_sh_fit_lobe(NULL, shading, NULL, NPIX, other) == HD_ERR_ARG);
     shading[7] = NAN;

@@ -16,6 +16,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "apply/apply.h"
+#include "light/light.h"
 
 /* the blur of log r, a share of the texture side */
 #define RATIO_BLUR 0.012f
@@ -68,10 +69,8 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
     if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "face light: a mask has 1 channel");
     hd_image skin = {0};
     hd_status st = skin_at(mask, size, &skin);
-    float lobe[HD_SH_COEFFS];
-    if (st == HD_OK) st = hd_sh_fit_lobe(d->normal.data, d->shading.data, skin.data, size * size, lobe);
     if (st == HD_OK)
-        st = hd_sh_fit_toward(d->normal.data, d->shading.data, skin.data, size * size, lobe, HD_SOURCE_PRIOR, light);
+        st = hd_sh_fit_toward_lobe(d->normal.data, d->shading.data, skin.data, size * size, HD_SOURCE_PRIOR, light);
     hd_image_free(&skin);
     return st;
 }

@@ -9,7 +9,8 @@
  * light of hd_light_from_direction's family, an ambient level plus one distant light of intensity
  * >= 0 from within 100 degrees of the viewer: a search over directions, each with its two
  * amplitudes in closed form from the same normal equations. Its 4 numbers are what a face's normals
- * do pin down, so it is the prior the face's own light is pulled toward (src/apply/rule.c). */
+ * do pin down, so it is the prior the face's own light is pulled toward (hd_sh_fit_toward_lobe,
+ * which sums the normal equations once for both; src/apply/rule.c). */
 #include <math.h>
 #include <string.h>
 #include "core/core.h"
@@ -94,22 +95,14 @@ hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask
     return hd_sh_fit_toward(normal, shading, mask, npix, NULL, 0.0f, light);
 }
 
-hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
-                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS])
+/* Solves the normal equations A, r of `used` pixels of total weight `weight`, pulled toward
+ * pull with strength (A and r are changed). With no pixel the answer is pull (the zero light
+ * when strength is 0). */
+static hd_status solve_toward(double A[K][K], double r[K], long used, double weight, const float pull[K],
+                              float strength, float light[HD_SH_COEFFS])
 {
-    float pull[K] = {0};
-    if (prior) memcpy(pull, prior, sizeof pull);
-    memset(light, 0, K * sizeof *light);
-    if (npix < 0 || (npix > 0 && (!normal || !shading)) || !(strength >= 0.0f) || !isfinite(strength))
-        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d, strength %g)", npix, strength);
-    for (int k = 0; k < K; k++)
-        if (!isfinite(pull[k])) return hd_fail(HD_ERR_NUMERIC, "sh fit: prior coefficient %d is not finite", k);
-    double A[K][K], r[K], weight;
-    long used;
-    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
-    if (st != HD_OK) return st;
     if (used == 0) { /* nothing to fit: the prior (the zero light without one) */
-        if (strength > 0.0f) memcpy(light, pull, sizeof pull);
+        if (strength > 0.0f) memcpy(light, pull, K * sizeof *light);
         return HD_OK;
     }
     double trace = 0.0;
@@ -129,6 +122,22 @@ hd_status hd_sh_fit_toward(const float *normal, const float *shading, const floa
         light[i] = (float)x[i];
     }
     return HD_OK;
+}
+
+hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
+                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS])
+{
+    float pull[K] = {0};
+    if (prior) memcpy(pull, prior, sizeof pull);
+    memset(light, 0, K * sizeof *light);
+    if (npix < 0 || (npix > 0 && (!normal || !shading)) || !(strength >= 0.0f) || !isfinite(strength))
+        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d, strength %g)", npix, strength);
+    for (int k = 0; k < K; k++)
+        if (!isfinite(pull[k])) return hd_fail(HD_ERR_NUMERIC, "sh fit: prior coefficient %d is not finite", k);
+    double A[K][K], r[K], weight;
+    long used;
+    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
+    return st == HD_OK ? solve_toward(A, r, used, weight, pull, strength, light) : st;
 }
 
 /* The lobe fit's cost at one direction: the best ambient a and intensity i >= 0 of
@@ -159,16 +168,9 @@ static double lobe_cost(const double A[K][K], const double r[K], float az, float
     return a * a * uAu + 2.0 * a * in * uAv + in * in * vAv - 2.0 * (a * ru + in * rv);
 }
 
-hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
-                         float light[HD_SH_COEFFS])
+/* The lobe fit on the normal equations A, r of at least one pixel. */
+static hd_status lobe_from(const double A[K][K], const double r[K], float light[HD_SH_COEFFS])
 {
-    memset(light, 0, K * sizeof *light);
-    if (npix < 0 || (npix > 0 && (!normal || !shading)))
-        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d)", npix);
-    double A[K][K], r[K], weight;
-    long used;
-    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
-    if (st != HD_OK || used == 0) return st; /* nothing to fit: the zero light */
     if (!isfinite(A[0][0]) || !(A[0][0] > 0.0))
         return hd_fail(HD_ERR_NUMERIC, "sh fit: normal equations overflow");
     /* every direction of a Fibonacci sphere, then a pattern search in azimuth and elevation */
@@ -200,4 +202,32 @@ hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float 
         return hd_fail(HD_ERR_NUMERIC, "sh fit: the lobe fit is not finite");
     hd_light_from_direction(best_az, best_el, (float)in, (float)a, light);
     return HD_OK;
+}
+
+hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                         float light[HD_SH_COEFFS])
+{
+    memset(light, 0, K * sizeof *light);
+    if (npix < 0 || (npix > 0 && (!normal || !shading)))
+        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d)", npix);
+    double A[K][K], r[K], weight;
+    long used;
+    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
+    if (st != HD_OK || used == 0) return st; /* nothing to fit: the zero light */
+    return lobe_from(A, r, light);
+}
+
+hd_status hd_sh_fit_toward_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                                float strength, float light[HD_SH_COEFFS])
+{
+    memset(light, 0, K * sizeof *light);
+    if (npix < 0 || (npix > 0 && (!normal || !shading)) || !(strength >= 0.0f) || !isfinite(strength))
+        return hd_fail(HD_ERR_ARG, "sh fit: invalid arguments (npix %d, strength %g)", npix, strength);
+    double A[K][K], r[K], weight;
+    long used;
+    float lobe[K];
+    hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
+    if (st != HD_OK || used == 0) return st; /* nothing to fit: the zero light */
+    if ((st = lobe_from(A, r, lobe)) != HD_OK) return st;
+    return solve_toward(A, r, used, weight, lobe, strength, light);
 }

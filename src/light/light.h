@@ -1,5 +1,6 @@
 /* light.h: internals of the spherical-harmonics lighting module shared by its files (the basis
- * constants of SPEC section 2 and the Lambertian factors they contain). */
+ * constants of SPEC section 2 and the Lambertian factors they contain), and the one fit the
+ * relighting rule needs beyond the public ones. */
 #ifndef HD_LIGHT_H
 #define HD_LIGHT_H
 
@@ -24,5 +25,10 @@ static inline void hd_light_mirror(float light[HD_SH_COEFFS])
     light[4] = -light[4];
     light[7] = -light[7];
 }
+
+/* hd_sh_fit_toward(..., prior = hd_sh_fit_lobe(...), strength, light) with the normal equations
+ * summed once: the face's own light (hd_face_light). With no pixel in the mask, the zero light. */
+hd_status hd_sh_fit_toward_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                                float strength, float light[HD_SH_COEFFS]);
 
 #endif /* HD_LIGHT_H */
