@@ -316,9 +316,28 @@ typedef struct hd_decomposition {
     hd_image albedo;         /* 3 channels in [0, 1] */
     hd_image shading;        /* 1 channel, >= 0 */
     hd_image normal;         /* 3 channels, unit camera-frame vectors */
-    hd_image reconstruction; /* albedo * shading */
+    hd_image reconstruction; /* albedo * shading * camera_tint: the input as the model explains it */
     float light[HD_SH_COEFFS];
+    /* The colour cast of the input (per-channel gains of mean 1, clamped to 0.7..1.4) that the model
+     * divided out before decomposing it (HD_WHITE_BALANCE_EYES); 1, 1, 1 without (the default).
+     * The albedo and shading are those of the balanced face. */
+    float camera_tint[3];
 } hd_decomposition;
+
+/* What hd_model_decompose does about the camera's colour cast. OFF (the default): the input goes
+ * to the network as it is. EYES: the input's tint is read from the whites of its eyes
+ * (hd_eye_white_balance) and divided out before the network sees it: for photos with a strong cast
+ * (a warm white balance: albedo error 0.072 -> 0.048 on synthetic faces), at a cost on blurred or
+ * JPEG-compressed faces of neutral balance (docs/usage.md, "White balance"). */
+typedef enum { HD_WHITE_BALANCE_OFF = 0, HD_WHITE_BALANCE_EYES = 1 } hd_white_balance;
+/* Sets it for every later call with this model (not while another thread decomposes with it). */
+hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode);
+
+/* The colour cast of an aligned face texture (square RGB, docs/spec.md section 2) from the whites of
+ * its eyes: the chroma of the brighter half of the texels inside the two eye contours against the
+ * sclera's chroma in the synthetic faces, as per-channel gains of mean 1 clamped to 0.7..1.4; 1, 1, 1
+ * when the eyes hold fewer than 8 texels brighter than 0.02 (closed or masked out). */
+hd_status hd_eye_white_balance(const hd_image *texture, float tint[3]);
 
 /* Decomposes `count` aligned face images (1-4 channels are converted to RGB; any size: each is
  * resized to the model size), in batches of up to 4. Results are at the model size; out[i] is

@@ -99,6 +99,16 @@ expect 2 "$HDNET" relight small.png $M --preset 1
 expect 2 "$HDNET" decompose small.png $M
 expect 2 "$HDNET" decompose -o out3 $M
 expect 2 "$HDNET" decompose small.png $M -o out3 --batch 0
+# --white-balance: off is the default byte for byte; eyes runs; a bad value and a wrong mode are
+# usage errors (its effect is tests/test_white_balance.c's)
+expect 0 "$HDNET" decompose face.png $M -o wb_off --white-balance off
+cmp wb_off/face.albedo.png out1/face.albedo.png || fail "--white-balance off differs from the default"
+expect 0 "$HDNET" decompose face.png $M -o wb_eyes --white-balance eyes
+exists wb_eyes/face.albedo.png wb_eyes/face.recon.png
+expect_saying 2 "wants off or eyes" "$HDNET" decompose face.png $M -o wb_bad --white-balance grey
+[ ! -e wb_bad ] || fail "a usage error made the output folder"
+expect_saying 2 "ground-truth evaluation" "$HDNET" eval data --photos --white-balance eyes
+expect_saying 2 "wants off or eyes" "$HDNET" eval data --white-balance 1
 expect 2 "$HDNET" transfer small.png $M -o x.png
 expect 2 "$HDNET" delight $M -o x.png
 expect 2 "$HDNET" estimate-light small.png small.png $M -o x.txt

@@ -3,7 +3,7 @@ shipped model on the bundled photo: relight/delight/transfer/estimate-light equa
 exactly; uint8 and float32 inputs agree; light=, preset= and direction= agree; decompose's maps have
 the documented shapes and ranges; errors raise hdnet.Error with the library's message; calls release
 the GIL (a Python thread keeps counting during one) and two threads sharing the model get the
-serial results; a JPEG stored rotated with an EXIF orientation tag is relit upright, by the module
+serial results; white_balance=True keeps the albedo under a warm cast; a JPEG stored rotated with an EXIF orientation tag is relit upright, by the module
 and by the tool alike; an unknown output extension is an error. Run by tests/python.sh: python3 test_python.py ROOT HDNET (in a scratch folder)."""
 import os
 import subprocess
@@ -89,6 +89,13 @@ check(len(faces) == 1 and faces[0].texture.shape == (128, 128, 3) and faces[0].l
       "align: %d faces" % len(faces))
 a2, s2, n2, l2 = model.decompose(hdnet.align(photo, size=256)[0].texture, aligned=True)
 check(np.array_equal(a2, albedo) and np.array_equal(l2, dlight), "decompose(aligned=True) of the texture differs")
+# white_balance=True: the albedo of a warm-cast copy of the photo stays far closer to the photo's own
+# (each with the same setting) than without
+warm = np.clip(photo * np.array([1.2, 1.0, 0.8], np.float32), 0, 1)
+balanced = hdnet.Model(white_balance=True)
+drift_on = np.abs(balanced.decompose(warm)[0] - balanced.decompose(photo)[0])[face_mask].mean()
+drift_off = np.abs(model.decompose(warm)[0] - albedo)[face_mask].mean()
+check(drift_on < 0.5 * drift_off, "white_balance: albedo drift %.4f under a warm cast, %.4f without" % (drift_on, drift_off))
 tex = faces[0].texture
 check(np.array_equal(model.relight(tex, preset=1, aligned=True), model.relight(tex, light=hdnet.light_preset(1), aligned=True)),
       "aligned relight: preset= and light= differ")

@@ -44,6 +44,16 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
     return st;
 }
 
+int cli_white_balance_set(const cli_cmd_spec *spec, const char *value, hd_model *model)
+{
+    if (!value) return 0;
+    hd_white_balance mode;
+    if (strcmp(value, "off") == 0) mode = HD_WHITE_BALANCE_OFF;
+    else if (strcmp(value, "eyes") == 0) mode = HD_WHITE_BALANCE_EYES;
+    else return cli_usage_error(spec, "--white-balance wants off or eyes, got '%s'", value);
+    return model && hd_model_set_white_balance(model, mode) != HD_OK ? cli_report(spec->name) : 0;
+}
+
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source)
 {
     if (strcmp(value, "fit") == 0) *source = HD_SOURCE_FIT;

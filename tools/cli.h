@@ -93,6 +93,13 @@ int cli_opts_common(const cli_cmd_spec *spec, int threads, float min_score);
 
 /* What the commands that apply a model to a photo or an aligned face share: their option rows, */
 #define CLI_OPT_MODEL_ROW(var) {"model", 'm', CLI_OPT_STRING, &(var), "MODEL", "model file (default: the shipped hdnet-synth model)"}
+#define CLI_OPT_WHITE_BALANCE_ROW(var)                                                                                  \
+    {"white-balance", 0, CLI_OPT_STRING, &(var), "off|eyes",                                                          \
+     "eyes: divide the colour cast read from the whites of the eyes out of each face first (default off; "           \
+     "docs/usage.md, \"White balance\")"}
+/* sets model's white balance from the --white-balance value (NULL: leave the default); returns 0,
+ * or the usage error's exit code. */
+int cli_white_balance_set(const cli_cmd_spec *spec, const char *value, hd_model *model);
 #define CLI_OPT_FACE_MASK_ROW(var)                                                                                      \
     {"mask", 0, CLI_OPT_STRING, &(var), "M.png",                                                                        \
      "with an aligned texture: face mask when IMG has no NAME.mask.png beside it (default: all ones)"}

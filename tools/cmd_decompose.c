@@ -269,7 +269,7 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
 
 int cmd_decompose(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *white_balance = NULL;
     int batch = 4, aligned = 0, threads = 0, quiet = 0, json = 0;
     float min_score = cli_min_score_default();
     const cli_opt opts[] = {
@@ -281,6 +281,7 @@ int cmd_decompose(int argc, char **argv)
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "the inputs are aligned face textures, not photos (automatic for an image with NAME.mask.png or "
          "NAME.normal.png beside it)"},
+        CLI_OPT_WHITE_BALANCE_ROW(white_balance),
         CLI_OPT_MIN_SCORE_ROW(min_score),
         CLI_OPT_THREADS_ROW(threads),
         CLI_OPT_QUIET_ROW(quiet),
@@ -308,7 +309,8 @@ int cmd_decompose(int argc, char **argv)
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
+    if ((code = cli_opts_common(&spec, threads, min_score)) || (code = cli_white_balance_set(&spec, white_balance, NULL)) ||
+        (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
         ((batch < 1 || batch > 256) && (code = cli_usage_error(&spec, "--batch wants 1..256, got %d", batch)))) {
         free(pos);
         return code;
@@ -324,7 +326,9 @@ int cmd_decompose(int argc, char **argv)
     hd_status st = cli_inputs_collect(&in, pos, npos);
     for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], out);
     free(pos);
-    if (st != HD_OK || in.total == 0 || hd_model_load(model_path, &model) != HD_OK || hd_mkdirs(out) != HD_OK) {
+    if (st != HD_OK || in.total == 0 || hd_model_load(model_path, &model) != HD_OK ||
+        cli_white_balance_set(&spec, white_balance, model) ||
+        hd_mkdirs(out) != HD_OK) {
         rc = cli_report("decompose");
         goto done;
     }

@@ -174,7 +174,7 @@ static int pair_eval(const char *data, const char *model_path, const hd_photo_ru
 int cmd_eval(int argc, char **argv)
 {
     const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
-    const char *source = NULL;
+    const char *source = NULL, *white_balance = NULL;
     int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0;
     float guard = 0.0f;
     const cli_opt opts[] = {
@@ -193,6 +193,7 @@ int cmd_eval(int argc, char **argv)
         {"sheets", 0, CLI_OPT_STRING, &sheets, "OUT",
          "with --photos: instead of scores, a before / after sheet per photo into folder OUT"},
         CLI_OPT_SOURCE_LIGHT_ROW(source),
+        CLI_OPT_WHITE_BALANCE_ROW(white_balance),
         {"guard", 0, CLI_OPT_FLOAT, &guard, "G",
          "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "
          "(default 0: the built-in value, docs/usage.md)"},
@@ -236,6 +237,8 @@ int cmd_eval(int argc, char **argv)
     if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
     if ((source || guard > 0) && !photos && !pairs)
         return cli_usage_error(&spec, "--source-light and --guard go with --photos or --pairs");
+    if (white_balance && (pairs || photos))
+        return cli_usage_error(&spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
     if (pairs) {
         if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
         return pair_eval(data, model_path, &how, &jo);
@@ -250,8 +253,14 @@ int cmd_eval(int argc, char **argv)
     }
     if (heldout || limit || sheets || strcmp(rule, "ratio") != 0)
         return cli_usage_error(&spec, "--rule, --heldout, --limit and --sheets go with --photos");
+    if (white_balance && pred) return cli_usage_error(&spec, "--white-balance goes with a model, not --pred");
+    if ((code = cli_white_balance_set(&spec, white_balance, NULL))) return code;
     hd_model *model = NULL;
     if (!pred && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
+    if ((code = cli_white_balance_set(&spec, white_balance, model))) {
+        hd_model_free(model);
+        return code;
+    }
     hd_eval_report rep;
     hd_status st = hd_eval_run(data, pred, model, &rep, warn);
     hd_model_free(model);

@@ -36,7 +36,7 @@ class _Image(ctypes.Structure):
 
 class _Decomposition(ctypes.Structure):
     _fields_ = [("albedo", _Image), ("shading", _Image), ("normal", _Image), ("reconstruction", _Image),
-                ("light", ctypes.c_float * SH_COEFFS)]
+                ("light", ctypes.c_float * SH_COEFFS), ("camera_tint", ctypes.c_float * 3)]
 
 
 class _AlignedFace(ctypes.Structure):
@@ -92,6 +92,7 @@ _model_free = _sig("hd_model_free", None, ctypes.c_void_p)
 _model_size = _sig("hd_model_size", ctypes.c_int, ctypes.c_void_p)
 _model_decompose = _sig("hd_model_decompose", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_Decomposition))
 _decomposition_free = _sig("hd_decomposition_free", None, _P(_Decomposition))
+_model_set_white_balance = _sig("hd_model_set_white_balance", _st, ctypes.c_void_p, ctypes.c_int)
 _aligner_load = _sig("hd_aligner_load", _st, _P(ctypes.c_void_p))
 _aligner_free = _sig("hd_aligner_free", None, ctypes.c_void_p)
 _aligner_run = _sig("hd_aligner_run", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_P(_AlignedFace)),
@@ -263,13 +264,17 @@ class Model:
 
     Methods take a photo (H x W x 3: its faces are found, processed and blended back; the result has
     the photo's size) or, with aligned=True, an aligned face texture (the result is a texture).
-    keep_brightness (relight, transfer): match the input's mean brightness (the default)."""
+    keep_brightness (relight, transfer): match the input's mean brightness (the default).
+    white_balance=True: divide the colour cast read from the whites of the eyes out of each face
+    before decomposing it (hd_model_set_white_balance; off by default)."""
 
-    def __init__(self, path=None):
+    def __init__(self, path=None, white_balance=False):
         p = ctypes.c_void_p()
         _check(_model_load(None if path is None else os.fsencode(path), ctypes.byref(p)))
         self._p = p
         self.size = _model_size(p)
+        if white_balance:
+            _check(_model_set_white_balance(p, 1))
 
     def __del__(self):
         if getattr(self, "_p", None):

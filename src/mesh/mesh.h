@@ -23,6 +23,16 @@ hd_status hd_mesh_load_canonical(hd_mesh *mesh);
 hd_status hd_mesh_canonical(const hd_mesh **mesh);
 void hd_mesh_free(hd_mesh *mesh);
 
+/* The closed contours of the face's parts over the 468 landmarks (contours.c; FaceMesh indices, in
+ * order around each part, -1 ends each): the eyes' openings, the inner lips, the eyebrows. */
+#define HD_CONTOUR_MAX 32
+extern const int hd_contour_right_eye[], hd_contour_left_eye[], hd_contour_inner_lips[], hd_contour_right_brow[],
+    hd_contour_left_brow[];
+/* Rasterises contours list[0..count) of the canonical mesh (hd_mesh_canonical) in its UV layout at
+ * size x size: 1 at the texel centres inside a contour or within grow_share x size texels of one,
+ * 0 elsewhere. */
+hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_share, int size, hd_image *out);
+
 /* For each texel centre ((x + 0.5) / size, (y + 0.5) / size) of a size x size UV map: the index
  * of the triangle that covers it in UV space (-1 if none) and its barycentric weights. */
 typedef struct hd_uv_raster {

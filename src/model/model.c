@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "model/checkpoint.h"
+#include "model/white_balance.h"
 
 #define HD_DECOMPOSE_BATCH 4
 
@@ -23,6 +24,8 @@ struct hd_model {
     float *params; /* the weights: written by hd_model_load only */
     pthread_mutex_t lock; /* guards idle */
     run_state *idle[HD_DECOMPOSE_BATCH + 1]; /* idle run states by batch size */
+    hd_white_balance white_balance;
+    hd_image eyes; /* the eye contours at the model size (hd_eyes_uv), made by the first call that needs them; guarded by lock */
 };
 
 hd_status hd_model_load(const char *path, hd_model **model)
@@ -79,11 +82,52 @@ void hd_model_free(hd_model *model)
             free(r);
         }
     pthread_mutex_destroy(&model->lock);
+    hd_image_free(&model->eyes);
     free(model->params);
     free(model);
 }
 
 int hd_model_size(const hd_model *model) { return model->cfg.size; }
+
+hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode)
+{
+    if (!model) return hd_fail(HD_ERR_ARG, "white balance: no model");
+    if (mode != HD_WHITE_BALANCE_EYES && mode != HD_WHITE_BALANCE_OFF)
+        return hd_fail(HD_ERR_ARG, "white balance: unknown mode %d", (int)mode);
+    model->white_balance = mode;
+    return HD_OK;
+}
+
+/* The eye contours at the model size, made once. */
+static hd_status model_eyes(hd_model *m, const float **eyes)
+{
+    pthread_mutex_lock(&m->lock);
+    hd_status s = m->eyes.data ? HD_OK : hd_eyes_uv(m->cfg.size, &m->eyes);
+    *eyes = m->eyes.data;
+    pthread_mutex_unlock(&m->lock);
+    return s;
+}
+
+/* Divides the tint of slot rgb (3, size, size) out of it in place (clamped to [0, 1]) and writes it. */
+static hd_status balance_input(hd_model *m, float *rgb, float tint[3])
+{
+    tint[0] = tint[1] = tint[2] = 1.0f;
+    if (m->white_balance == HD_WHITE_BALANCE_OFF) return HD_OK;
+    const float *eyes;
+    hd_status s = model_eyes(m, &eyes);
+    if (s == HD_OK) s = hd_eye_tint(rgb, m->cfg.size, eyes, tint);
+    if (s != HD_OK) return s;
+    const size_t HW = (size_t)m->cfg.size * m->cfg.size;
+    for (int c = 0; c < 3; c++) {
+        if (tint[c] == 1.0f) continue;
+        float inv = 1.0f / tint[c];
+        for (size_t p = 0; p < HW; p++) {
+            float v = rgb[c * HW + p] * inv;
+            rgb[c * HW + p] = v > 1.0f ? 1.0f : v;
+        }
+    }
+    return HD_OK;
+}
 int hd_model_width(const hd_model *model) { return model->cfg.width; }
 
 /* An idle run state for batches of B from the pool, or a new one. */
@@ -162,8 +206,11 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
     for (int first = 0; first < count; first += net->B) {
         int n = count - first < net->B ? count - first : net->B;
         memset(net->input, 0, (size_t)net->B * 3 * HW * sizeof(float));
+        float tints[HD_DECOMPOSE_BATCH][3];
         for (int k = 0; k < n; k++)
-            if ((s = load_input(&images[first + k], size, net->input + (size_t)k * 3 * HW, first + k)) != HD_OK) goto fail;
+            if ((s = load_input(&images[first + k], size, net->input + (size_t)k * 3 * HW, first + k)) != HD_OK ||
+                (s = balance_input(model, net->input + (size_t)k * 3 * HW, tints[k])) != HD_OK)
+                goto fail;
         hd_net_forward(net);
         for (int k = 0; k < n; k++) {
             hd_decomposition *d = &out[first + k];
@@ -177,8 +224,9 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
             memcpy(d->normal.data, net->normal + (size_t)k * 3 * HW, 3 * HW * sizeof(float));
             for (int c = 0; c < 3; c++)
                 for (size_t p = 0; p < HW; p++)
-                    d->reconstruction.data[c * HW + p] = d->albedo.data[c * HW + p] * d->shading.data[p];
+                    d->reconstruction.data[c * HW + p] = d->albedo.data[c * HW + p] * d->shading.data[p] * tints[k][c];
             memcpy(d->light, net->light + (size_t)k * HD_SH_COEFFS, sizeof d->light);
+            memcpy(d->camera_tint, tints[k], sizeof d->camera_tint);
         }
     }
     give_back(model, r);

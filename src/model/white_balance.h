@@ -1,0 +1,18 @@
+/* white_balance.h: internal to src/model: the eyes and the eye-white tint on planar data (white_balance.c). */
+#ifndef HD_WHITE_BALANCE_H
+#define HD_WHITE_BALANCE_H
+
+#include "hdnet.h"
+
+/* The bounds of each channel's tint (the estimate is clamped to them) */
+#define HD_TINT_MIN 0.7f
+#define HD_TINT_MAX 1.4f
+
+/* The eyes' openings (their contours, not grown) at size x size in the aligned texture's layout. */
+hd_status hd_eyes_uv(int size, hd_image *eyes);
+/* The tint (per-channel gains of mean 1) of a size x size planar RGB texture from the texels where
+ * eyes > 0.5 (hd_eyes_uv at the same size); 1, 1, 1 when too few are bright enough. Fails only
+ * for want of memory. */
+hd_status hd_eye_tint(const float *rgb, int size, const float *eyes, float tint[3]);
+
+#endif
