@@ -11,9 +11,10 @@
 const int hd_contour_right_eye[] = {33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246, -1};
 const int hd_contour_left_eye[] = {263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466, -1};
 const int hd_contour_inner_lips[] = {78,  95,  88,  178, 87,  14,  317, 402, 318, 324,
-                                 308, 415, 310, 311, 312, 13,  82,  81,  80,  191, -1};
+                                     308, 415, 310, 311, 312, 13,  82,  81,  80,  191, -1};
 const int hd_contour_right_brow[] = {46, 53, 52, 65, 55, 107, 66, 105, 63, 70, -1};
 const int hd_contour_left_brow[] = {276, 283, 282, 295, 285, 336, 296, 334, 293, 300, -1};
+
 /* Even-odd point-in-polygon test of (x, y) against n vertices (px, py). */
 static int inside_polygon(const float *px, const float *py, int n, float x, float y)
 {
@@ -33,8 +34,7 @@ static float segment_distance(float x, float y, float ax, float ay, float bx, fl
     return sqrtf(ex * ex + ey * ey);
 }
 
-/* Rasterises the contours list[0..count) at size x size (1 inside or within grow texture sides of
- * a contour, 0 elsewhere). */
+/* (mesh.h) */
 hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_share, int size, hd_image *regions)
 {
     memset(regions, 0, sizeof *regions);

@@ -22,10 +22,10 @@ struct hd_model {
     hd_net_config cfg;
     hd_param_table table;
     float *params; /* the weights: written by hd_model_load only */
-    pthread_mutex_t lock; /* guards idle */
+    pthread_mutex_t lock; /* guards idle and eyes */
     run_state *idle[HD_DECOMPOSE_BATCH + 1]; /* idle run states by batch size */
-    hd_white_balance white_balance;
-    hd_image eyes; /* the eye contours at the model size (hd_eyes_uv), made by the first call that needs them; guarded by lock */
+    hd_white_balance white_balance; /* hd_model_set_white_balance's; HD_WHITE_BALANCE_OFF from hd_model_load */
+    hd_image eyes; /* the eye openings at the model size (hd_eyes_uv), made by the first call that needs them */
 };
 
 hd_status hd_model_load(const char *path, hd_model **model)
@@ -88,6 +88,7 @@ void hd_model_free(hd_model *model)
 }
 
 int hd_model_size(const hd_model *model) { return model->cfg.size; }
+int hd_model_width(const hd_model *model) { return model->cfg.width; }
 
 hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode)
 {
@@ -108,7 +109,8 @@ static hd_status model_eyes(hd_model *m, const float **eyes)
     return s;
 }
 
-/* Divides the tint of slot rgb (3, size, size) out of it in place (clamped to [0, 1]) and writes it. */
+/* With the white balance on: divides the tint of slot rgb (3, size, size) out of it in place
+ * (clamped to 1) and writes it to tint; else tint is 1, 1, 1 and rgb untouched. */
 static hd_status balance_input(hd_model *m, float *rgb, float tint[3])
 {
     tint[0] = tint[1] = tint[2] = 1.0f;
@@ -128,7 +130,6 @@ static hd_status balance_input(hd_model *m, float *rgb, float tint[3])
     }
     return HD_OK;
 }
-int hd_model_width(const hd_model *model) { return model->cfg.width; }
 
 /* An idle run state for batches of B from the pool, or a new one. */
 static hd_status take_run_state(hd_model *m, int B, run_state **out)

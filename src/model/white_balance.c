@@ -2,9 +2,11 @@
  * (docs/usage.md, "White balance"). The sclera is the one part of a face whose colour varies
  * little from person to person, so the chroma of the brighter half of the texels inside the two eye
  * contours (the darker half is iris, pupil and lashes), against the chroma the synthetic faces'
- * sclera has, says how the camera tinted the picture. hd_model_decompose divides the tint out
- * before the network sees the face (the network was trained on faces of neutral balance) and puts
- * it back into the reconstruction. */
+ * sclera has, says how the camera tinted the picture. With HD_WHITE_BALANCE_EYES,
+ * hd_model_decompose divides the tint out before the network sees the face (it was trained mostly
+ * on faces of neutral balance) and puts it back into the reconstruction. Off by default: at 128
+ * texels an eye opening is about five rows tall, and blur or JPEG's halved chroma mixes the skin's
+ * colour into it (docs/usage.md has the figures). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
