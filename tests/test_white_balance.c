@@ -15,9 +15,6 @@
 
 #define S 96
 
-/* The sclera's chroma the estimate takes as neutral (white_balance.c) */
-static const float SCLERA[3] = {1.0544f, 0.9947f, 0.9509f};
-
 /* Skin everywhere, and inside the eyes a sclera of neutral chroma with an iris on a third of the
  * texels; then every channel multiplied by cast[c] * level. */
 static void face_texture(const float *eyes, const float cast[3], float level, float *rgb)
@@ -29,7 +26,7 @@ static void face_texture(const float *eyes, const float cast[3], float level, fl
             size_t p = (size_t)y * S + x;
             for (int c = 0; c < 3; c++) {
                 float v = skin[c];
-                if (eyes[p] > 0.5f) v = (x + y) % 3 == 0 ? iris[c] : 0.8f * SCLERA[c];
+                if (eyes[p] > 0.5f) v = (x + y) % 3 == 0 ? iris[c] : 0.8f * hd_sclera_chroma[c];
                 rgb[c * P + p] = v * cast[c] * level;
             }
         }

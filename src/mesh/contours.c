@@ -24,25 +24,14 @@ static int inside_polygon(const float *px, const float *py, int n, float x, floa
     return in;
 }
 
-/* Distance from (x, y) to the segment a-b. */
-static float segment_distance(float x, float y, float ax, float ay, float bx, float by)
-{
-    float dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
-    float t = l2 > 0 ? ((x - ax) * dx + (y - ay) * dy) / l2 : 0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    float ex = ax + t * dx - x, ey = ay + t * dy - y;
-    return sqrtf(ex * ex + ey * ey);
-}
-
 /* (mesh.h) */
 hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_share, int size, hd_image *regions)
 {
     memset(regions, 0, sizeof *regions);
     if (size < 1 || size > HD_IMAGE_MAX_SIDE) return hd_fail(HD_ERR_ARG, "face regions: size %d out of range", size);
-    const hd_mesh *m;
-    hd_status st = hd_mesh_canonical(&m);
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
     if (st != HD_OK) return st;
-    const hd_mesh mesh = *m;
     st = hd_image_alloc(regions, size, size, 1);
     const float grow = grow_share * size;
     for (int r = 0; r < count && st == HD_OK; r++) {
@@ -50,12 +39,12 @@ hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_shar
         int n = 0;
         for (; list[r][n] >= 0 && n < HD_CONTOUR_MAX; n++) {
             int v = list[r][n];
-            if (v >= mesh.nv) {
-                st = hd_fail(HD_ERR_FORMAT, "face regions: the mesh has %d vertices, landmark %d needed", mesh.nv, v);
+            if (v >= mesh->nv) {
+                st = hd_fail(HD_ERR_FORMAT, "face regions: the mesh has %d vertices, landmark %d needed", mesh->nv, v);
                 break;
             }
-            px[n] = mesh.uv[2 * v] * size; /* texel units; texel (x, y) centred at x + 0.5 */
-            py[n] = mesh.uv[2 * v + 1] * size;
+            px[n] = mesh->uv[2 * v] * size; /* texel units; texel (x, y) centred at x + 0.5 */
+            py[n] = mesh->uv[2 * v + 1] * size;
             lo[0] = fminf(lo[0], px[n]), hi[0] = fmaxf(hi[0], px[n]);
             lo[1] = fminf(lo[1], py[n]), hi[1] = fmaxf(hi[1], py[n]);
         }
@@ -69,7 +58,7 @@ hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_shar
                 float cx = x + 0.5f, cy = y + 0.5f;
                 int in = inside_polygon(px, py, n, cx, cy);
                 for (int i = 0, j = n - 1; !in && i < n; j = i++)
-                    in = segment_distance(cx, cy, px[j], py[j], px[i], py[i]) <= grow;
+                    in = hd_segment_distance(cx, cy, px[j], py[j], px[i], py[i]) <= grow;
                 if (in) regions->data[(size_t)y * size + x] = 1.0f;
             }
     }

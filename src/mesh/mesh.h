@@ -4,6 +4,7 @@
 #ifndef HD_MESH_H
 #define HD_MESH_H
 
+#include <math.h>
 #include "hdnet.h"
 
 typedef struct hd_mesh {
@@ -26,6 +27,15 @@ void hd_mesh_free(hd_mesh *mesh);
 /* The closed contours of the face's parts over the 468 landmarks (contours.c; FaceMesh indices, in
  * order around each part, -1 ends each): the eyes' openings, the inner lips, the eyebrows. */
 #define HD_CONTOUR_MAX 32
+/* Distance from (x, y) to the segment a-b (any 2-D frame: UV, texels). */
+static inline float hd_segment_distance(float x, float y, float ax, float ay, float bx, float by)
+{
+    float dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
+    float t = l2 > 0 ? ((x - ax) * dx + (y - ay) * dy) / l2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    float ex = ax + t * dx - x, ey = ay + t * dy - y;
+    return sqrtf(ex * ex + ey * ey);
+}
 extern const int hd_contour_right_eye[], hd_contour_left_eye[], hd_contour_inner_lips[], hd_contour_right_brow[],
     hd_contour_left_brow[];
 /* Rasterises contours list[0..count) of the canonical mesh (hd_mesh_canonical) in its UV layout at

@@ -18,7 +18,7 @@
  * estimate over the ground-truth albedo of 400 images of `hdnet synth --seed 3001 --size 128`
  * (per-image standard deviation 0.014, 0.003, 0.013). On the aligned studio photos of faces-london
  * (124 photos) the tint reads 1.035, 0.973, 0.992 (sd 0.041, 0.016, 0.033). */
-static const float SCLERA_CHROMA[3] = {1.0544f, 0.9947f, 0.9509f};
+const float hd_sclera_chroma[3] = {1.0544f, 0.9947f, 0.9509f};
 /* The darkest texel that counts as an eye white (masked-out texels are 0) */
 #define MIN_LUMINANCE 0.02f
 /* Fewer eye-white texels than this: no estimate (tint 1, 1, 1) */
@@ -66,7 +66,7 @@ hd_status hd_eye_tint(const float *rgb, int size, const float *eyes, float tint[
     if (used < MIN_TEXELS / 2 || !(mean > 0)) return HD_OK;
     float t[3];
     double tmean = 0;
-    for (int c = 0; c < 3; c++) t[c] = (float)(sum[c] / mean) / SCLERA_CHROMA[c], tmean += t[c] / 3.0;
+    for (int c = 0; c < 3; c++) t[c] = (float)(sum[c] / mean) / hd_sclera_chroma[c], tmean += t[c] / 3.0;
     for (int c = 0; c < 3; c++) {
         float v = (float)(t[c] / tmean);
         tint[c] = v < HD_TINT_MIN ? HD_TINT_MIN : v > HD_TINT_MAX ? HD_TINT_MAX : v;

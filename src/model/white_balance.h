@@ -4,6 +4,8 @@
 
 #include "hdnet.h"
 
+/* The sclera's chroma (rgb / mean of rgb) the estimate takes as neutral (white_balance.c says whence) */
+extern const float hd_sclera_chroma[3];
 /* The bounds of each channel's tint (the estimate is clamped to them) */
 #define HD_TINT_MIN 0.7f
 #define HD_TINT_MAX 1.4f

@@ -41,16 +41,6 @@ static float smoothstep(float e0, float e1, float x)
     return t * t * (3.0f - 2.0f * t);
 }
 
-/* Distance from p to the segment a-b. */
-static float seg_dist(float px, float py, float ax, float ay, float bx, float by)
-{
-    float dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
-    float t = l2 > 0 ? ((px - ax) * dx + (py - ay) * dy) / l2 : 0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    float ex = ax + t * dx - px, ey = ay + t * dy - py;
-    return sqrtf(ex * ex + ey * ey);
-}
-
 /* Signed distance (UV; > 0 inside) from p to the polygon through the UVs of vertices idx. */
 static float poly_sdist(const hd_mesh *m, const int *idx, int n, float px, float py)
 {
@@ -59,7 +49,7 @@ static float poly_sdist(const hd_mesh *m, const int *idx, int n, float px, float
     for (int i = 0, j = n - 1; i < n; j = i++) {
         float ax = m->uv[2 * idx[j]], ay = m->uv[2 * idx[j] + 1], bx = m->uv[2 * idx[i]], by = m->uv[2 * idx[i] + 1];
         if ((by > py) != (ay > py) && px < ax + (py - ay) * (bx - ax) / (by - ay)) inside = !inside;
-        float e = seg_dist(px, py, ax, ay, bx, by);
+        float e = hd_segment_distance(px, py, ax, ay, bx, by);
         if (e < d) d = e;
     }
     return inside ? d : -d;
@@ -188,12 +178,12 @@ hd_status syn_regions_build(hd_synth *s)
         s->region[SYN_REGION_FOREHEAD][i] = smoothstep(forehead_top, forehead_top + 0.03f, py) *
                                             (1.0f - smoothstep(forehead_bottom - 0.03f, forehead_bottom, py)) *
                                             (1.0f - smoothstep(0.25f, 0.32f, fabsf(px - 0.5f)));
-        float dfold = fminf(seg_dist(px, py, fold[0][0], fold[0][1], fold[0][2], fold[0][3]),
-                            seg_dist(px, py, fold[1][0], fold[1][1], fold[1][2], fold[1][3]));
+        float dfold = fminf(hd_segment_distance(px, py, fold[0][0], fold[0][1], fold[0][2], fold[0][3]),
+                            hd_segment_distance(px, py, fold[1][0], fold[1][1], fold[1][2], fold[1][3]));
         s->region[SYN_REGION_NASOLABIAL][i] = dfold * SYN_CM_PER_UV;
         /* mentolabial groove: a short horizontal line between the lower lip and the chin */
         float sv = 0.5f * (uv[2 * 17 + 1] + uv[2 * 199 + 1]);
-        s->region[SYN_REGION_SULCUS][i] = seg_dist(px, py, 0.5f - 0.05f, sv, 0.5f + 0.05f, sv) * SYN_CM_PER_UV;
+        s->region[SYN_REGION_SULCUS][i] = hd_segment_distance(px, py, 0.5f - 0.05f, sv, 0.5f + 0.05f, sv) * SYN_CM_PER_UV;
         /* alar creases: arcs around the nose wings (distance to a circle about 129 / 358) */
         float ax = px < 0.5f ? uv[2 * 129] + 0.012f : uv[2 * 358] - 0.012f, ay = uv[2 * 129 + 1] + 0.008f;
         float ad = fabsf(sqrtf((px - ax) * (px - ax) + (py - ay) * (py - ay)) - 0.03f);
