@@ -62,7 +62,7 @@ static void on_progress(const hd_train_progress *p, void *user)
 int cmd_train(int argc, char **argv)
 {
     const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit",
-               *anchor_over = "image";
+               *anchor_over = "image", *prior_on = "coarse", *light_fit = "face";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0, prior_iters = 0;
     float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
@@ -117,6 +117,11 @@ int cmd_train(int argc, char **argv)
         {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt|image",
          "l_hat of L_l: the least-squares fit of S (default) or, not the paper's, NAME.light.txt where"
          " present, or the fit of the image's luminance scaled to --shading-mean (no ground truth)"},
+        {"shading-prior-normals", 0, CLI_OPT_STRING, &prior_on, "coarse|predicted",
+         "not the paper's: the shading prior's normals, N_bar (default) or, in stage 2, the predicted N"},
+        {"light-fit", 0, CLI_OPT_STRING, &light_fit, "face|skin",
+         "not the paper's: the photo's own light (the shading prior's, --light-target image's) fitted"
+         " to the whole face (default) or to the skin alone, without the eyes, brows and lips"},
         {"every", 0, CLI_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
         {"seed", 0, CLI_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, CLI_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
@@ -151,6 +156,10 @@ int cmd_train(int argc, char **argv)
         return cli_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
     if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0 && strcmp(light_target, "image") != 0)
         return cli_usage_error(&spec, "--light-target must be fit, gt or image, not '%s'", light_target);
+    if (strcmp(prior_on, "coarse") != 0 && strcmp(prior_on, "predicted") != 0)
+        return cli_usage_error(&spec, "--shading-prior-normals must be coarse or predicted, not '%s'", prior_on);
+    if (strcmp(light_fit, "face") != 0 && strcmp(light_fit, "skin") != 0)
+        return cli_usage_error(&spec, "--light-fit must be face or skin, not '%s'", light_fit);
 
     hd_train_options o;
     hd_train_defaults(&o);
@@ -182,6 +191,8 @@ int cmd_train(int argc, char **argv)
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;
     o.light_target_image = strcmp(light_target, "image") == 0;
+    o.shading_prior_predicted = strcmp(prior_on, "predicted") == 0;
+    o.light_fit_skin = strcmp(light_fit, "skin") == 0;
     if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return cli_usage_error(&spec, "--shading-mean must be in (0, 100)");
     o.shading_mean = shading_mean;
     if (prior_iters < 0) return cli_usage_error(&spec, "--shading-prior-iters must not be negative");

@@ -35,19 +35,18 @@ hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *wei
     memset(weight, 0, sizeof *weight);
     if (size < 1 || size > HD_IMAGE_MAX_SIDE || !(inner >= 0.0f) || !(outer > inner))
         return hd_fail(HD_ERR_ARG, "eye discs: size %d or radii %g, %g out of range", size, inner, outer);
-    hd_mesh mesh;
-    hd_status st = hd_mesh_load_canonical(&mesh);
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
     if (st != HD_OK) return st;
     float c[2][2];
     for (int e = 0; e < 2 && st == HD_OK; e++) {
         for (int n = 0; EYES[e][n] >= 0; n++)
-            if (EYES[e][n] >= mesh.nv)
-                st = hd_fail(HD_ERR_FORMAT, "eye discs: the mesh has %d vertices, landmark %d needed", mesh.nv, EYES[e][n]);
+            if (EYES[e][n] >= mesh->nv)
+                st = hd_fail(HD_ERR_FORMAT, "eye discs: the mesh has %d vertices, landmark %d needed", mesh->nv, EYES[e][n]);
         if (st != HD_OK) break;
-        contour_centre(EYES[e], mesh.uv, 2, c[e]);
+        contour_centre(EYES[e], mesh->uv, 2, c[e]);
         c[e][0] *= size, c[e][1] *= size; /* texel units */
     }
-    hd_mesh_free(&mesh);
     if (st == HD_OK) st = hd_image_alloc(weight, size, size, 1);
     if (st != HD_OK) return st;
     const float dist = hypotf(c[1][0] - c[0][0], c[1][1] - c[0][1]), r0 = inner * dist, r1 = outer * dist;

@@ -7,6 +7,7 @@
 #include <string.h>
 #include "model/losses.h"
 #include "light/light.h"
+#include "mesh/mesh.h"
 
 #define HD_SMOOTH_EPS 0.01f
 
@@ -54,7 +55,32 @@ void hd_losses_free(hd_losses *L)
     free(L->weight);
     free(L->light_hat);
     free(L->prior);
+    free(L->skin);
+    free(L->fit_weight);
     memset(L, 0, sizeof *L);
+}
+
+hd_status hd_losses_fit_skin_only(hd_losses *L)
+{
+    static const int *const PARTS[] = {hd_contour_right_eye, hd_contour_left_eye, hd_contour_inner_lips,
+                                       hd_contour_right_brow, hd_contour_left_brow};
+    hd_net *net = L->net;
+    if (net->H != net->W)
+        return hd_fail(HD_ERR_ARG, "the skin-only light fit needs a square network (%d x %d)", net->W, net->H);
+    size_t HW = (size_t)net->H * net->W;
+    hd_image parts;
+    hd_status st = hd_mesh_contours_uv(PARTS, (int)(sizeof PARTS / sizeof PARTS[0]), HD_LOSSES_PARTS_GROW, net->W, &parts);
+    if (st != HD_OK) return st;
+    float *skin = hd_malloc(HW * sizeof(float)), *fw = hd_malloc(HW * sizeof(float));
+    if (!skin || !fw) {
+        free(skin), free(fw), hd_image_free(&parts);
+        return HD_ERR_NOMEM;
+    }
+    for (size_t p = 0; p < HW; p++) skin[p] = 1.0f - parts.data[p];
+    hd_image_free(&parts);
+    free(L->skin), free(L->fit_weight);
+    L->skin = skin, L->fit_weight = fw;
+    return HD_OK;
 }
 
 /* SPEC section 2 with X = x, Y = -z, Z = y:
@@ -77,7 +103,7 @@ float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3
  * the normals only, never S: a shading that has collapsed to a constant (which the paper's terms
  * and the anchor accept, with a DC light) is still pulled toward the shape of the light the photo
  * shows. Uses image b's part of L->d_shade as scratch (and leaves it zero, as the backward
- * expects). */
+ * expects). With L->skin the fit weighs the skin alone; the scale still takes the whole mask. */
 static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_COEFFS])
 {
     hd_net *net = L->net;
@@ -85,7 +111,12 @@ static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_
     const float *I = L->batch->image + (size_t)b * 3 * HW, *m = L->batch->mask + (size_t)b * HW;
     float *Y = L->d_shade + (size_t)b * HW;
     for (int p = 0; p < HW; p++) Y[p] = 0.2126f * I[p] + 0.7152f * I[HW + p] + 0.0722f * I[2 * HW + p];
-    hd_status st = hd_sh_fit(n, Y, m, HW, l);
+    const float *fit = m;
+    if (L->skin) { /* the skin alone (hd_losses_fit_skin_only) */
+        for (int p = 0; p < HW; p++) L->fit_weight[p] = m[p] * L->skin[p];
+        fit = L->fit_weight;
+    }
+    hd_status st = hd_sh_fit(n, Y, fit, HW, l);
     memset(Y, 0, (size_t)HW * sizeof(float)); /* d_shade is the backward's accumulator: leave it clear */
     if (st != HD_OK) return st;
     double ms = 0, mS = 0;
@@ -115,8 +146,10 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
         /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
-        if (batch->has_normal[b]) { /* the shading prior's target */
-            const float *Nb = batch->coarse_normal + (size_t)b * 3 * HW;
+        /* the shading prior's target, on N_bar or (prior_predicted) on N, detached; a gradient check
+         * holds it with light_hat */
+        if (batch->has_normal[b] && !(L->hold_light_hat && L->prior_predicted)) {
+            const float *Nb = L->prior_predicted ? N : batch->coarse_normal + (size_t)b * 3 * HW;
             float li[HD_SH_COEFFS];
             hd_status st = image_light(L, b, Nb, li);
             if (st != HD_OK) {

@@ -65,10 +65,23 @@ typedef struct hd_losses {
     int shading_mean_pair; /* the anchor on the mean of the pair's two mean shadings, not on each image */
     int light_from_image; /* l_hat fitted to the image's luminance instead of to S, scaled so that its
                            * shading's mean over the mask is shading_mean (not the paper's) */
+    int prior_predicted; /* the shading prior's target on the predicted normals N (detached) instead of
+                          * the coarse N_bar (stage 2; --shading-prior-normals predicted) */
+    float *skin;       /* (HW) or NULL: 1 on skin, 0 on the eyes, brows and inner lips, where the photo's
+                        * own light is fitted without them (hd_losses_fit_skin_only) */
+    float *fit_weight; /* (HW) scratch: mask times skin */
 } hd_losses;
 
 hd_status hd_losses_create(hd_losses *L, hd_net *net);
 void hd_losses_free(hd_losses *L);
+
+/* The photo's own light (the shading prior's, and --light-target image's) fitted to the skin alone:
+ * the eyes, brows and inner lips of the canonical layout, grown by HD_LOSSES_PARTS_GROW of the
+ * side, weigh 0 in the least-squares fit (their albedo is far from the skin's, so an even-albedo
+ * fit reads them as shading). The scale to c still takes the whole face. Needs a square network
+ * (the aligned texture space); --light-fit skin. */
+#define HD_LOSSES_PARTS_GROW 0.02f
+hd_status hd_losses_fit_skin_only(hd_losses *L);
 
 /* After hd_net_forward: computes s(N, l), the render m*A*s(N, l) and l_hat (from the coarse or the
  * predicted normals; the batch's ground-truth light where it has one) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
@@ -87,7 +100,8 @@ double hd_loss_albedo_supervised(hd_losses *L, float scale);
 double hd_loss_shading_mean(hd_losses *L, float scale);
 /* Not the paper's, the shading prior: mean_m |S - s(N_bar, l_img)| over the images that have coarse
  * normals, l_img the least-squares light of the photo's luminance on N_bar scaled so that the
- * target's mean over the face is the anchor's c. A constant S cannot satisfy it. */
+ * target's mean over the face is the anchor's c. A constant S cannot satisfy it. With
+ * L->prior_predicted, N_bar is replaced by the predicted N (detached) in both places. */
 double hd_loss_shading_prior(hd_losses *L, float scale);
 /* Not the paper's, L_lpair: mean over pairs of mean_k |l_j,k - (R l_i)_k|, R the identity for
  * HD_PAIR_LIGHT_SAME pairs and hd_light_mirror for HD_PAIR_LIGHT_MIRROR ones, 0 for the others;

@@ -174,12 +174,18 @@ hd_status hd_unet_create(hd_unet **net, int cin, int cout, int width, int B, int
             /* the padded lanes as real channels: the input's block in enc0, its tail in dec1a */
             u->cpad[l] = hd_nc16_channels(ci);
             st = hd_conv3x3_plan_nc16(&u->conv[l], B, u->cpad[l], H >> lev, W >> lev, co, 1, act, 0.1f);
-            if (st != HD_OK && l == 0) { /* oneDNN refused: the plain layout */
+            if (st != HD_OK) { /* oneDNN refused a layer (no JIT kernel here): every layer plain */
                 hd_clear_error();
+                for (int k = 0; k < l; k++) {
+                    hd_conv3x3_free(u->conv[k]);
+                    u->conv[k] = NULL;
+                }
                 u->nc16 = 0;
                 st = HD_OK;
+                l = -1; /* start again */
+                continue;
             }
-            if (u->nc16) continue;
+            continue;
         }
         st = hd_conv3x3_plan(&u->conv[l], B, ci, H >> lev, W >> lev, co, 1, act, 0.1f, path);
     }

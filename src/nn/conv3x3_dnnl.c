@@ -78,6 +78,28 @@ static void engine_make(void)
         }                                                                          \
     } while (0)
 
+/* oneDNN's reference kernels (impl "ref:...") are what it runs where it has no JIT kernel for a
+ * layout on this CPU (nChw16c on a CPU without AVX-512, for one): correct, but a hundred times
+ * slower than the portable path. A plan that would get one fails, so that the caller takes the
+ * plain layout or the portable path instead. HD_DNNL_REFERENCE=1 in the environment lets them
+ * through (the tests of the nc16 plans' numerics, on such a CPU). */
+static int reference_allowed(void)
+{
+    const char *e = getenv("HD_DNNL_REFERENCE");
+    return e && strcmp(e, "1") == 0;
+}
+
+#define NOT_REFERENCE(pd, what)                                                                      \
+    do {                                                                                             \
+        const char *impl_ = NULL;                                                                    \
+        if (!reference_allowed() &&                                                                  \
+            dnnl_primitive_desc_query(pd, dnnl_query_impl_info_str, 0, &impl_) == dnnl_success && impl_ && \
+            strncmp(impl_, "ref", 3) == 0) {                                                         \
+            hd_fail(HD_ERR_ARG, "conv3x3: oneDNN has only its reference kernel (%s) for this %s on this CPU", impl_, what); \
+            goto fail;                                                                               \
+        }                                                                                            \
+    } while (0)
+
 static hd_status dn_init(void)
 {
     pthread_once(&engine_once, engine_make);
@@ -203,6 +225,7 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
         }
         DN(dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL));
     }
+    NOT_REFERENCE(fpd, "forward");
     DN(dnnl_primitive_create(&d->fwd, fpd));
     if (scratch_size(fpd) > scratch) scratch = scratch_size(fpd);
     DN(make_view(&d->src, &s_user, qmd(fpd, dnnl_query_src_md), 1, 0, &scratch));
@@ -222,6 +245,7 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     } else {
         d->bd_alg = dnnl_convolution_winograd;
     }
+    NOT_REFERENCE(dpd, "backward data");
     DN(dnnl_primitive_create(&d->bwd_data, dpd));
     if (scratch_size(dpd) > scratch) scratch = scratch_size(dpd);
     DN(make_view(&d->bd_ddst, &d_user, qmd(dpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
@@ -239,6 +263,7 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
                                                        &d_any, strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd));
     }
+    NOT_REFERENCE(wpd, "backward weights");
     DN(dnnl_primitive_create(&d->bwd_weights, wpd));
     if (scratch_size(wpd) > scratch) scratch = scratch_size(wpd);
     DN(make_view(&d->bw_src, &s_user, qmd(wpd, dnnl_query_src_md), 1, 0, &scratch));
@@ -302,6 +327,7 @@ hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head)
     DN(dnnl_primitive_desc_create(&fpd, &fdesc, attr, engine, NULL));
     DN(dnnl_convolution_backward_data_desc_init(&ddesc, d->bd_alg, &s_md, &w_any, &d_md, strides, pad_l, pad_r));
     DN(dnnl_primitive_desc_create(&dpd, &ddesc, attr, engine, fpd));
+    NOT_REFERENCE(dpd, "backward data head");
     DN(dnnl_primitive_create(&d->bwd_head, dpd));
     scratch = scratch_size(dpd);
     DN(make_view(&d->bh_w, &w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
