@@ -94,6 +94,19 @@ expect 0 $H train data -o imgrun $T --iters 2 --every 2 --light-target image
     fail "--light-target image changed a term that does not read l_hat"
 [ "$(sed -n 2p imgrun/loss.csv | cut -d, -f7)" != "$(sed -n 2p run/loss.csv | cut -d, -f7)" ] ||
     fail "--light-target image did not change the light loss"
+# the shading prior's options: bad values are usage errors; the skin-only fit changes the prior's
+# term (column 12) of step 1 and none of the image terms
+expect 2 $H train data -o y --shading-prior-normals nope
+expect 2 $H train data -o y --light-fit nope
+head -1 run/loss.csv | cut -d, -f12 | grep -qx shading_prior || fail "column 12 is not shading_prior: $(head -1 run/loss.csv)"
+expect 0 $H train data -o skinrun $T --iters 2 --every 2 --light-fit skin
+[ "$(sed -n 2p skinrun/loss.csv | cut -d, -f3-6)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-6)" ] ||
+    fail "--light-fit skin changed a term that does not read the prior"
+[ "$(sed -n 2p skinrun/loss.csv | cut -d, -f12)" != "$(sed -n 2p run/loss.csv | cut -d, -f12)" ] ||
+    fail "--light-fit skin did not change the shading prior"
+expect 0 $H train data -o prednrun $T --iters 2 --every 2 --shading-prior-normals predicted
+[ "$(sed -n 2p prednrun/loss.csv | cut -d, -f12)" != "$(sed -n 2p run/loss.csv | cut -d, -f12)" ] ||
+    fail "--shading-prior-normals predicted did not change the shading prior"
 # the scale anchor: a ninth column, on by default, 0 when its weight is 0 (only the total changes)
 head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column: $(head -1 run/loss.csv)"
 expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
