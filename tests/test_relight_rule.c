@@ -171,6 +171,24 @@ static void test_fields(void)
     CHECK(w[2 * W + 2] == 0.0f);
     CHECK(w[15 * W + 20] == 1.0f);
     CHECK(w[15 * W + 5] > 0.0f && w[15 * W + 5] < w[15 * W + 7] && w[15 * W + 7] < 1.0f);
+    /* the outward feather of the same rectangle: 1 on it, 0 from the band outward, falling between;
+     * a region on the picture's edge is not faded there (the edge is not an edge of the region) */
+    CHECK(hd_field_feather_out(known, W, H, 3.0f, w) == HD_OK);
+    int on = 1;
+    for (int p = 0; p < W * H; p++) on &= !known[p] || w[p] == 1.0f;
+    CHECK(on);
+    CHECK(w[15 * W + 1] == 0.0f && w[1 * W + 20] == 0.0f); /* 4 px outside */
+    CHECK(w[15 * W + 4] < 1.0f && w[15 * W + 3] < w[15 * W + 4] && w[15 * W + 3] > 0.0f);
+    CHECK_NEAR(w[15 * W + 4], 1.0 - hd_field_smoothstep(1.0f / 3.0f), 1e-6);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) known[y * W + x] = x < 10;
+    CHECK(hd_field_feather_out(known, W, H, 3.0f, w) == HD_OK);
+    CHECK(w[0] == 1.0f && w[(H - 1) * W + 9] == 1.0f && w[5 * W + 13] == 0.0f);
+    for (int p = 0; p < W * H; p++) known[p] = 0;
+    CHECK(hd_field_feather_out(known, W, H, 3.0f, w) == HD_OK);
+    on = 1;
+    for (int p = 0; p < W * H; p++) on &= w[p] == 0.0f;
+    CHECK(on); /* no region: no change anywhere */
 }
 
 #define SIDE 64
@@ -524,6 +542,27 @@ static void test_forehead_region(void)
             CHECK(AT(100, 29) == 0.0f); /* 31 px: beyond */
         }
 #undef AT
+        if (!bald && !fringe) {
+            /* the feather: above the brows the whole change up to the grown region's top edge (the
+             * growth stops a few pixels under the hair, y = 45, where the skin test's blur sees
+             * it: y = 49 here) and a band of 0.12 x 40 = 4.8 px beyond it, over the skin left and
+             * into the hair; inside the region's edge it used to fade to 0. On the cheeks it fades
+             * inside the mesh's edge as before (0.3 x 40 = 12 px) */
+            float *w = calloc(P, sizeof *w);
+            if (!w) exit(1);
+            CHECK(hd_photo_face_feather(&f, &photo, cov, w) == HD_OK);
+            CHECK(hd_photo_face_region(&f, &photo, cov, HD_FOREHEAD_GROW, region) == HD_OK);
+#define WT(x, y) w[(size_t)(y) * W + (x)]
+            CHECK(region[(size_t)49 * W + 100] == 1.0f && region[(size_t)48 * W + 100] == 0.0f);
+            CHECK(WT(100, 49) == 1.0f && WT(100, 55) == 1.0f); /* the region's edge: all of it */
+            CHECK(WT(100, 46) > 0.3f && WT(100, 46) < WT(100, 48) && WT(100, 48) < 1.0f); /* beyond it */
+            CHECK(WT(100, 44) == 0.0f && WT(100, 20) == 0.0f); /* the hair beyond the band: the photo */
+            CHECK(WT(20, 100) == 0.0f);                          /* the background */
+            CHECK(WT(145, 110) > 0.0f && WT(145, 110) < 0.5f);   /* 4.5 px inside the mesh's side */
+            CHECK(WT(100, 110) == 1.0f);
+#undef WT
+            free(w);
+        }
         size_t grown = 0;
         for (size_t p = 0; p < P; p++) grown += region[p] > 0.5f && cov[p] <= 0.5f;
         CHECK(fringe || grown > 200);

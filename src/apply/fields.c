@@ -1,5 +1,6 @@
 /* fields.c: the smooth scalar fields of the relighting rule: filling holes from what is around them
- * (push-pull), Gaussian blurring, and feather weights that fall to 0 at a region's edge. One plane
+ * (push-pull), Gaussian blurring, and feather weights that fall to 0 at a region's edge (inside
+ * it) or beyond it (outside). One plane
  * of floats each, w x h, row-major. */
 #include <math.h>
 #include <stdlib.h>
@@ -113,16 +114,16 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma)
 
 float hd_field_smoothstep(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
 
-hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight)
+/* d = the chamfer distance of each pixel to the nearest pixel where inside is <= 0.5 (0 there); with
+ * edge_outside the picture's edge counts as outside too (a border pixel is one step in). */
+static void chamfer_distance(const float *inside, int w, int h, int edge_outside, float *d)
 {
-    size_t n = (size_t)w * h;
-    float *d = weight;
     const float big = 1e30f, a = 1.0f, b = 1.41421356f; /* chamfer steps: edge and diagonal */
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
-            /* the picture's edge counts as outside: a border pixel is one step in */
-            d[p] = inside[p] <= 0.5f ? 0.0f : (x == 0 || y == 0 || x == w - 1 || y == h - 1) ? a : big;
+            const int border = edge_outside && (x == 0 || y == 0 || x == w - 1 || y == h - 1);
+            d[p] = inside[p] <= 0.5f ? 0.0f : border ? a : big;
         }
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
@@ -144,7 +145,28 @@ hd_status hd_field_feather(const float *inside, int w, int h, float band, float 
             if (x > 0 && y + 1 < h) v = fminf(v, d[p + w - 1] + b);
             d[p] = v;
         }
+}
+
+hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight)
+{
+    size_t n = (size_t)w * h;
+    chamfer_distance(inside, w, h, 1, weight);
     const float inv = band > 0 ? 1.0f / band : 0.0f;
-    for (size_t p = 0; p < n; p++) weight[p] = band > 0 ? hd_field_smoothstep(d[p] * inv) : (d[p] > 0 ? 1.0f : 0.0f);
+    for (size_t p = 0; p < n; p++)
+        weight[p] = band > 0 ? hd_field_smoothstep(weight[p] * inv) : (weight[p] > 0 ? 1.0f : 0.0f);
+    return HD_OK;
+}
+
+hd_status hd_field_feather_out(const float *inside, int w, int h, float band, float *weight)
+{
+    size_t n = (size_t)w * h;
+    float *outside = hd_malloc((n ? n : 1) * sizeof(float));
+    if (!outside) return HD_ERR_NOMEM;
+    for (size_t p = 0; p < n; p++) outside[p] = inside[p] > 0.5f ? 0.0f : 1.0f;
+    chamfer_distance(outside, w, h, 0, weight); /* the distance from the region, 0 inside it */
+    free(outside);
+    const float inv = band > 0 ? 1.0f / band : 0.0f;
+    for (size_t p = 0; p < n; p++)
+        weight[p] = band > 0 ? 1.0f - hd_field_smoothstep(weight[p] * inv) : (weight[p] > 0 ? 0.0f : 1.0f);
     return HD_OK;
 }

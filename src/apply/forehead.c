@@ -4,8 +4,10 @@
  * edge and the hair. The face's region is grown from the mesh's upper edge into the pixels above
  * it that look like the face's own skin (chroma, luminance and texture, measured robustly on the
  * mesh's cheeks and nose), up to a set share of the eye distance. The feather weights fade the
- * change over 0.3 eye distances inside the mesh's edge (jaw, ears, temples), and over a narrower band
- * inside the grown region's edge above the brows, where that edge is the hairline. */
+ * change over 0.3 eye distances inside the mesh's edge (jaw, ears, temples), and above the brows,
+ * where the grown region's edge is the hairline, over a narrower band *outside* it, into the hair:
+ * the skin keeps the whole change up to the hair (a band inside left a strip of the old light under
+ * the hairline), and the hair, lit by the same light, takes its first few pixels of it. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,7 +25,7 @@
 #define TOL_LOG_LUM 0.15f /* ... plus this much log luminance */
 #define TOL_TEXTURE 0.005f /* ... plus this much texture (above only) */
 #define FEATHER_FACE 0.30f     /* the feather inside the mesh's edge, in eye distances */
-#define FEATHER_HAIRLINE 0.12f /* the feather inside the grown region's edge, above the brows */
+#define FEATHER_HAIRLINE 0.12f /* the feather outside the grown region's edge, above the brows */
 #define HAIRLINE_FROM 0.3f     /* the narrow band takes over between these two heights */
 #define HAIRLINE_TO 0.6f
 #define FACE_FOREHEAD 10  /* FaceMesh: the top of the forehead */
@@ -235,8 +237,8 @@ hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo,
     st = region && narrow ? HD_OK : HD_ERR_NOMEM;
     if (st == HD_OK) st = hd_photo_face_region(f, photo, coverage, HD_FOREHEAD_GROW, region);
     const float nb = FEATHER_HAIRLINE * e > 2.0f ? FEATHER_HAIRLINE * e : 2.0f;
-    if (st == HD_OK) st = hd_field_feather(region, W, H, nb, narrow);
-    /* above the brows the narrow band from the grown edge; below, the mesh's; between, a blend */
+    if (st == HD_OK) st = hd_field_feather_out(region, W, H, nb, narrow);
+    /* above the brows the narrow band beyond the grown edge; below, the mesh's; between, a blend */
     for (int y = 0; st == HD_OK && y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * W + x;
