@@ -684,9 +684,16 @@ typedef struct hd_eval_report {
     hd_eval_row rows[HD_EVAL_MAX_ROWS];
     long images, skipped;
     int kmeans_k;
+    hd_source_light source; /* the prediction's light that the lighting classification scored */
 } hd_eval_report;
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
                       void (*warn)(const char *message));
+/* hd_eval_run with the prediction's light taken from `source`: HD_SOURCE_LNET (hd_eval_run's) the
+ * prediction's own light (L-Net's, or PRED/.../NAME.light.txt); HD_SOURCE_FIT the face's light
+ * fitted to the predicted shading on the predicted normals (hd_face_light, over the set's mask),
+ * the light the relighting rule takes as the face's own. Only the light column changes. */
+hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
+                            hd_eval_report *report, void (*warn)(const char *message));
 /* The report as JSON: the text (malloc'ed; NULL with the reason set when out of memory), or
  * written to path atomically. */
 char *hd_eval_report_json(const hd_eval_report *report);

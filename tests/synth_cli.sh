@@ -56,6 +56,27 @@ grep -q '"light_accuracy_pct":	100' eval.json || fail "eval.json lacks the perfe
 expect 0 "$HDNET" eval set --pred pred --json
 cmp -s out.log eval.json || { diff out.log eval.json >&2; fail "eval --json on stdout differs from eval -o eval.json"; }
 expect_saying 2 "write it to a file with -o eval.json" "$HDNET" eval set --pred pred --json eval.json
+grep -q '"source_light":	"lnet"' eval.json || fail "eval.json does not say it scored the prediction's own light"
+# --source-light fit scores the least-squares light of the prediction's shading on its normals (the
+# relighting rule's face light) instead of its NAME.light.txt: with every light file zeroed, the
+# default's light column falls and the fit's (the true shading on the true normals) stays perfect,
+# and nothing else in the table changes
+mkdir zpred
+for d in pred/*; do
+    mkdir "zpred/$(basename "$d")"
+    cp "$d"/* "zpred/$(basename "$d")/"
+done
+for f in zpred/*/*.light.txt; do printf '0\n0\n0\n0\n0\n0\n0\n0\n0\n' >"$f"; done
+expect 0 "$HDNET" eval set --pred zpred -o zero.json
+grep -q '"light_accuracy_pct":	100' zero.json && fail "zeroed lights still classify 100 %"
+expect_saying 0 "the fit of S on N (--source-light fit)" "$HDNET" eval set --pred zpred --source-light fit -o fit.json
+grep -q '"source_light":	"fit"' fit.json || fail "fit.json does not say it scored the fitted light"
+grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000  0.0000 |  0.0000  0.0000 |  0.0000 |  100.00" out.log ||
+    { cat out.log >&2; fail "the true shading's fit on the true normals does not classify 100 %"; }
+expect 0 "$HDNET" eval set --pred zpred --source-light lnet -o lnet.json
+cmp -s zero.json lnet.json || fail "--source-light lnet is not the ground-truth evaluation's default"
+expect_saying 2 "fit or lnet" "$HDNET" eval set --pred pred --source-light other
+expect_saying 2 "goes with --photos or --pairs" "$HDNET" eval set --pred pred --guard 0.1
 # a flat folder (one subject's images directly in DATA): decompose writes OUT/NAME.*, which is
 # where eval --pred looks for them (the naming rule, docs/usage.md)
 expect 0 "$HDNET" init --width 4 --size 32 --seed 2 -o flat.safetensors

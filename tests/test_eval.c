@@ -224,6 +224,37 @@ static void test_run(void)
     CHECK(hd_read_file("eval.json", 1 << 20, &json, &n) == HD_OK);
     CHECK(json && strstr(json, "\"light_accuracy_pct\":\t100") && strstr(json, "\"images\":\t12"));
     free(json);
+    CHECK(rep.source == HD_SOURCE_LNET);
+    /* --source-light fit: the light scored is the least-squares light of the prediction's shading
+     * on its normals (hd_face_light over the set's mask), not its light file. With every light file
+     * zeroed, the prediction's own light misses and the fit of the true shading on the true normals
+     * still classifies all; every other column is the same */
+    for (int s = 0; s < 4; s++)
+        for (int i = 0; i < 3; i++) {
+            char path[128];
+            snprintf(path, sizeof path, "pred/subject_%04d/%04d.light.txt", s, i);
+            FILE *f = fopen(path, "w");
+            CHECK(f != NULL);
+            if (!f) continue;
+            for (int k = 0; k < HD_SH_COEFFS; k++) fputs("0\n", f);
+            fclose(f);
+        }
+    hd_eval_report zero, fit;
+    CHECK(hd_eval_run_light("set", "pred", NULL, HD_SOURCE_LNET, &zero, NULL) == HD_OK);
+    CHECK(hd_eval_run_light("set", "pred", NULL, HD_SOURCE_FIT, &fit, NULL) == HD_OK);
+    CHECK(zero.source == HD_SOURCE_LNET && fit.source == HD_SOURCE_FIT);
+    CHECK(zero.rows[0].light_accuracy < 50.0);
+    CHECK(fit.rows[0].has_light && fit.rows[0].light_accuracy == 100.0);
+    CHECK(fit.rows[0].albedo_mae == zero.rows[0].albedo_mae && fit.rows[0].normal_mean == zero.rows[0].normal_mean &&
+          fit.rows[0].shading_mae == zero.rows[0].shading_mae && fit.rows[0].recon_mae == zero.rows[0].recon_mae);
+    CHECK(memcmp(&fit.rows[1], &zero.rows[1], 3 * sizeof fit.rows[1]) == 0); /* the baselines */
+    json = hd_eval_report_json(&fit);
+    CHECK(json && strstr(json, "\"source_light\":\t\"fit\""));
+    free(json);
+    json = hd_eval_report_json(&zero);
+    CHECK(json && strstr(json, "\"source_light\":\t\"lnet\""));
+    free(json);
+    CHECK(hd_eval_run_light("set", "pred", NULL, (hd_source_light)7, &fit, NULL) == HD_ERR_ARG);
     /* a missing prediction is skipped with a reason; no prediction at all is an error */
     CHECK(remove("pred/subject_0002/0001.albedo.png") == 0);
     CHECK(hd_eval_run("set", "pred", NULL, &rep, NULL) == HD_OK);

@@ -22,7 +22,8 @@ static void cell(int has, const char *fmt, double v)
 
 static void print_table(const hd_eval_report *r)
 {
-    printf("%ld images (%ld skipped); lighting classes: k-means, k = %d\n\n", r->images, r->skipped, r->kmeans_k);
+    printf("%ld images (%ld skipped); lighting classes: k-means, k = %d%s\n\n", r->images, r->skipped, r->kmeans_k,
+           r->source == HD_SOURCE_FIT ? "; the prediction's light: the fit of S on N (--source-light fit)" : "");
     printf("%-28s %15s %7s %7s %7s | %7s %7s %7s | %7s %7s | %7s | %7s\n", "method", "normal (deg)", "<20%", "<25%",
            "<30%", "alb MAE", "RMSE", "si MAE", "rec MAE", "RMSE", "sh MAE", "light%");
     for (int i = 0; i < r->nrows; i++) {
@@ -209,7 +210,9 @@ int cmd_eval(int argc, char **argv)
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
         "% under 20/25/30 degrees), albedo MAE/RMSE, reconstruction MAE/RMSE (A*S against the input),\n"
-        "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights).\n"
+        "shading MAE, and lighting classification accuracy (k-means, k = 10, on the set's true lights)\n"
+        "of L-Net's light, or with --source-light fit of the least-squares light of the predicted\n"
+        "shading on the predicted normals over the skin (the relighting rule's face light).\n"
         "Baselines under it: the coarse normals (NAME.normal.png); the least-squares light of the true\n"
         "shading on the coarse normals; the per-image mean colour as albedo. Without -m or --pred the\n"
         "shipped model is scored.\n"
@@ -235,8 +238,7 @@ int cmd_eval(int argc, char **argv)
     hd_photo_rule how = {strcmp(rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, guard};
     if (source && cli_source_light_parse(&spec, source, &how.source)) return CLI_EXIT_USAGE;
     if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
-    if ((source || guard > 0) && !photos && !pairs)
-        return cli_usage_error(&spec, "--source-light and --guard go with --photos or --pairs");
+    if (guard > 0 && !photos && !pairs) return cli_usage_error(&spec, "--guard goes with --photos or --pairs");
     if (white_balance && (pairs || photos))
         return cli_usage_error(&spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
     if (pairs) {
@@ -261,8 +263,9 @@ int cmd_eval(int argc, char **argv)
         hd_model_free(model);
         return code;
     }
+    /* the ground-truth evaluation scores L-Net's light unless told otherwise (SPEC section 7) */
     hd_eval_report rep;
-    hd_status st = hd_eval_run(data, pred, model, &rep, warn);
+    hd_status st = hd_eval_run_light(data, pred, model, source ? how.source : HD_SOURCE_LNET, &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
     snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", pred ? "predictions" : "hdnet model");

@@ -417,12 +417,33 @@ static void sums_add(hd_eval_sums *a, const hd_eval_sums *b)
     a->shading_n += b->shading_n;
 }
 
+/* The prediction's light, as the lighting classification scores it: L-Net's (d->light, kept) or
+ * the face's least-squares light of S on N over the set's mask without the face regions
+ * (hd_face_light, what the relighting rule uses as the face's own light). */
+static hd_status source_light(hd_decomposition *d, const gt_image *g, hd_source_light source)
+{
+    if (source == HD_SOURCE_LNET) return HD_OK;
+    float l[HD_SH_COEFFS];
+    hd_status st = hd_face_light(d, &g->mask, source, l);
+    if (st == HD_OK) memcpy(d->light, l, sizeof l);
+    return st;
+}
+
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *rep,
                       void (*warn)(const char *message))
 {
+    return hd_eval_run_light(data_dir, pred_dir, model, HD_SOURCE_LNET, rep, warn);
+}
+
+hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
+                            hd_eval_report *rep, void (*warn)(const char *message))
+{
     memset(rep, 0, sizeof *rep);
+    rep->source = source;
     if ((pred_dir == NULL) == (model == NULL))
         return hd_fail(HD_ERR_ARG, "eval: give exactly one of a prediction folder and a model");
+    if (source != HD_SOURCE_LNET && source != HD_SOURCE_FIT)
+        return hd_fail(HD_ERR_ARG, "eval: unknown source light %d", (int)source);
     hd_dataset ds;
     hd_status st = hd_dataset_scan(data_dir, &ds, warn);
     if (st != HD_OK) return st;
@@ -455,6 +476,7 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
             e = pred_dir ? load_pred(data_dir, pred_dir, s, &d) : hd_model_decompose(model, &g.input, 1, &d);
             if (e == HD_OK) e = fit_decomposition(&d, g.input.width, g.input.height);
             if (e == HD_OK) e = ensure_recon(&d);
+            if (e == HD_OK) e = source_light(&d, &g, source);
             if (e == HD_OK) e = score(&g, &d, ir->sums, ir->gt_light, ir->pred_light, ir->ls_light, &ir->has_ls);
             hd_decomposition_free(&d);
             gt_free(&g);
@@ -522,6 +544,7 @@ char *hd_eval_report_json(const hd_eval_report *r)
     cJSON_AddNumberToObject(root, "images", (double)r->images);
     cJSON_AddNumberToObject(root, "skipped", (double)r->skipped);
     cJSON_AddNumberToObject(root, "kmeans_k", r->kmeans_k);
+    cJSON_AddStringToObject(root, "source_light", r->source == HD_SOURCE_FIT ? "fit" : "lnet");
     cJSON *rows = cJSON_AddArrayToObject(root, "rows");
     for (int i = 0; i < r->nrows; i++) {
         const hd_eval_row *w = &r->rows[i];
