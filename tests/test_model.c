@@ -457,6 +457,30 @@ static void test_stage2(void)
     free(before);
     free(disc0);
     hd_trainer_free(&t);
+    /* lnet_lr: phase 2a's step of L-Net at its own rate (Adam's first step moves a parameter by
+     * about the rate), 2b and the discriminator at lr */
+    float moved[2], disc_moved[2];
+    for (int run = 0; run < 2; run++) {
+        if (!tiny_trainer(&t, 4, 32, 1)) return;
+        t.stage = 2;
+        t.lnet_iters = 1;
+        t.lr = 1e-4f;
+        t.lnet_lr = run ? 1e-2f : 0.0f;
+        n = t.net.table.total, lnet = t.lnet_offset;
+        before = malloc(n * sizeof(float));
+        memcpy(before, t.net.params, n * sizeof(float));
+        float d0 = t.net.disc_params[0];
+        CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
+        CHECK(memcmp(before, t.net.params, lnet * sizeof(float)) == 0);
+        moved[run] = 0;
+        for (size_t i = lnet; i < n; i++) moved[run] = fmaxf(moved[run], fabsf(t.net.params[i] - before[i]));
+        disc_moved[run] = fabsf(t.net.disc_params[0] - d0);
+        free(before);
+        hd_trainer_free(&t);
+    }
+    CHECK(moved[0] > 0.9e-4f && moved[0] < 1.1e-4f);
+    CHECK(moved[1] > 0.9e-2f && moved[1] < 1.1e-2f);
+    CHECK(disc_moved[0] > 0 && disc_moved[0] == disc_moved[1]);
 }
 
 /* ---- a tiny pair overfits */

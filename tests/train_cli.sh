@@ -53,6 +53,15 @@ fi
 # stage 2 from the stage 1 model: phase 2a (L-Net) then 2b
 expect 0 $H train data -o run2 $T --stage 2 --init run/model.safetensors --iters 3 --lnet-iters 1 --every 3
 [ -s run2/checkpoint.safetensors ] || fail "stage 2 wrote no checkpoint"
+# --lnet-lr: phase 2a's L-Net steps at their own rate: the first iteration's losses (before any
+# step) are the same, the second's (after one 2a step) differ
+expect 0 $H train data -o run2lr $T --stage 2 --init run/model.safetensors --iters 3 --lnet-iters 1 --every 3 --lnet-lr 0.05
+[ "$(sed -n 2p run2/loss.csv | cut -d, -f1-14)" = "$(sed -n 2p run2lr/loss.csv | cut -d, -f1-14)" ] ||
+    fail "--lnet-lr changed the first iteration's losses"
+[ "$(sed -n 3p run2/loss.csv | cut -d, -f1-14)" != "$(sed -n 3p run2lr/loss.csv | cut -d, -f1-14)" ] ||
+    fail "--lnet-lr did not change phase 2a's step"
+expect_saying 2 "goes with --stage 2" $H train data -o y --lnet-lr 0.01
+expect_saying 2 "lnet-lr must be in" $H train data -o y --stage 2 --init run/model.safetensors --lnet-lr -1
 # a stage 1 checkpoint does not resume as stage 2
 expect 1 $H train data -o run $T --stage 2 --iters 8 --resume
 grep -q "stage" err.log || fail "stage mismatch not explained: $(cat err.log)"

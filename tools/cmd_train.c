@@ -65,7 +65,7 @@ int cmd_train(int argc, char **argv)
                *anchor_over = "image", *prior_on = "coarse", *light_fit = "face";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0, prior_iters = 0;
-    float time_limit = 0, lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
+    float time_limit = 0, lr = 0, lnet_lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
     const char *real_dir = NULL;
     int mirror = 0, same_light = 0;
     float w[HD_LOSS_TERMS];
@@ -83,6 +83,7 @@ int cmd_train(int argc, char **argv)
         {"time-limit", 0, CLI_OPT_FLOAT, &time_limit, "MINUTES", "checkpoint and stop after this long"},
         CLI_OPT_THREADS_ROW(threads),
         {"lr", 0, CLI_OPT_FLOAT, &lr, "X", "learning rate (default 1e-3 in stage 1, 1e-4 in stage 2)"},
+        {"lnet-lr", 0, CLI_OPT_FLOAT, &lnet_lr, "X", "stage 2: L-Net's learning rate in phase 2a (default: --lr)"},
         {"weights", 0, CLI_OPT_STRING, &weights, "gt|dpr", "loss weight set of SPEC section 4 (default gt)"},
         {"w-rec", 0, CLI_OPT_FLOAT, &w[HD_LOSS_REC], "X", "weight of L_Irec (gt 0.25, dpr 0.25)"},
         {"w-albedo", 0, CLI_OPT_FLOAT, &w[HD_LOSS_ALBEDO], "X", "weight of L_a (gt 0.25, dpr 0.15)"},
@@ -187,6 +188,9 @@ int cmd_train(int argc, char **argv)
     o.resume = resume;
     o.time_limit_min = time_limit;
     o.lr = lr;
+    if (!(lnet_lr >= 0.0f && lnet_lr < 1.0f)) return cli_usage_error(&spec, "--lnet-lr must be in [0, 1)");
+    if (lnet_lr > 0.0f && stage != 2) return cli_usage_error(&spec, "--lnet-lr goes with --stage 2 (phase 2a)");
+    o.lnet_lr = lnet_lr;
     o.every = every;
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;

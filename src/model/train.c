@@ -181,6 +181,7 @@ static hd_status start_trainer(const hd_train_options *o, run_start *rs, hd_trai
     t->shading_prior_iters = o->shading_prior_iters;
     t->stage = o->stage;
     t->lr = o->lr > 0 ? o->lr : o->stage == HD_TRAIN_STAGE_1 ? HD_TRAIN_DEFAULT_LR_STAGE1 : HD_TRAIN_DEFAULT_LR_STAGE2;
+    t->lnet_lr = o->stage == HD_TRAIN_STAGE_2 ? o->lnet_lr : 0.0f;
     t->lnet_iters = 0;
     if (o->stage == HD_TRAIN_STAGE_2) t->lnet_iters = o->lnet_iters >= 0 ? o->lnet_iters : o->iters / HD_TRAIN_DEFAULT_LNET_SHARE;
     if (o->resume) {

@@ -35,6 +35,7 @@ typedef struct hd_train_options {
     int resume;
     double time_limit_min; /* 0: none */
     float lr;              /* <= 0: 1e-3 in stage 1, 1e-4 in stage 2 */
+    float lnet_lr;         /* stage 2: L-Net's learning rate in phase 2a; <= 0: lr */
     hd_loss_weights weights;
     int prior_normals_gt;  /* N_bar from NAME.normal_gt.png instead of NAME.normal.png (the paper's "-ft") */
     int light_target_gt;   /* l_hat = NAME.light.txt where there is one, instead of the least-squares fit */

@@ -226,10 +226,12 @@ hd_status hd_trainer_step(hd_trainer *t, hd_step_result *r, const char *dump_pat
         memset(t->adam_v, 0, net->table.total * sizeof(float));
         t->adam_t = 0;
     }
-    size_t first = hd_trainer_phase(t, t->iteration) == HD_TRAIN_LNET ? t->lnet_offset : 0;
+    const int lnet_only = hd_trainer_phase(t, t->iteration) == HD_TRAIN_LNET;
+    size_t first = lnet_only ? t->lnet_offset : 0;
+    float lr = lnet_only && t->lnet_lr > 0 ? t->lnet_lr : t->lr; /* the discriminator keeps t->lr */
     t->adam_t++;
     hd_adam_step(net->params + first, net->grads + first, t->adam_m + first, t->adam_v + first,
-                 net->table.total - first, t->lr, HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->adam_t);
+                 net->table.total - first, lr, HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->adam_t);
     t->disc_adam_t++;
     hd_adam_step(net->disc_params, net->disc_grads, t->disc_adam_m, t->disc_adam_v, net->disc_table.total, t->lr,
                  HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->disc_adam_t);
