@@ -926,6 +926,54 @@ static void test_shading_prior(void)
     CHECK(r.total == 0.0 && r.terms[HD_LOSS_SHADING_PRIOR] > 1e-3);
     t.shading_prior_iters = 0;
     CHECK(hd_trainer_prior_ramp(&t, 1000000) == 1.0f);
+    t.iteration = 0;
+    /* the anchor on the pair: image 0 is the same grey face under 0.6 l. Per image, each target's
+     * mean over the face is c; on the pair, one scale for both, so the targets are
+     * c s(N_bar, l_b) / ((mean_0 + mean_1) / 2) with mean_b the mean of s(N_bar, l_b): the pair's
+     * mean is c and the dimmer image keeps its 0.6 */
+    float l0[HD_SH_COEFFS];
+    for (int c = 0; c < HD_SH_COEFFS; c++) l0[c] = 0.6f * l[c];
+    const float *lb[2] = {l0, l};
+    double mean[2];
+    for (int b = 0; b < 2; b++) {
+        float *Ib = t.batch.image + (size_t)b * 3 * HW, *Nb = t.batch.coarse_normal + (size_t)b * 3 * HW;
+        const float *mb = t.batch.mask + (size_t)b * HW;
+        double sm = 0, ss = 0;
+        for (size_t p = 0; p < HW; p++) {
+            float n[3] = {Nb[p], Nb[HW + p], Nb[2 * HW + p]}, v = hd_sh_shade(lb[b], n);
+            for (int c = 0; c < 3; c++) Ib[c * HW + p] = 0.5f * v;
+            sm += mb[p];
+            ss += mb[p] * v;
+        }
+        mean[b] = ss / sm;
+    }
+    for (int pair = 0; pair < 2; pair++) {
+        t.losses.shading_mean_pair = pair;
+        CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+        double got[2], err = 0;
+        for (int b = 0; b < 2; b++) {
+            const float *Nb = t.batch.coarse_normal + (size_t)b * 3 * HW, *mb = t.batch.mask + (size_t)b * HW;
+            double kb = t.losses.shading_mean / (pair ? 0.5 * (mean[0] + mean[1]) : mean[b]), sm = 0, st = 0;
+            for (size_t p = 0; p < HW; p++) {
+                if (mb[p] == 0.0f) continue;
+                float n[3] = {Nb[p], Nb[HW + p], Nb[2 * HW + p]};
+                err = fmax(err, fabs(t.losses.prior[b * HW + p] - kb * hd_sh_shade(lb[b], n)));
+                sm += mb[p];
+                st += mb[p] * t.losses.prior[b * HW + p];
+            }
+            got[b] = st / sm;
+        }
+        CHECK(err < 1e-4);
+        if (pair) {
+            CHECK_NEAR(0.5 * (got[0] + got[1]), t.losses.shading_mean, 1e-4);
+            CHECK_NEAR(got[0] / got[1], mean[0] / mean[1], 1e-4);
+            CHECK_NEAR(mean[0] / mean[1], 0.6, 1e-4);
+        } else {
+            CHECK_NEAR(got[0], t.losses.shading_mean, 1e-4);
+            CHECK_NEAR(got[1], t.losses.shading_mean, 1e-4);
+        }
+    }
+    t.losses.shading_mean_pair = 0;
     hd_trainer_free(&t);
 }
 

@@ -98,18 +98,19 @@ float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3
 }
 
 /* The photo's own light l_img of image b (--light-target image's l_hat, the shading prior's light):
- * the least-squares light of the image's luminance on the normals n (as if the albedo were even),
- * scaled so that the mean of s(n, l) over the mask is the scale anchor's c. It reads the photo and
- * the normals only, never S: a shading that has collapsed to a constant (which the paper's terms
- * and the anchor accept, with a DC light) is still pulled toward the shape of the light the photo
- * shows. Uses image b's part of L->d_shade as scratch (and leaves it zero, as the backward
- * expects). With L->skin the fit weighs the skin alone; the scale still takes the whole mask. */
-static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_COEFFS])
+ * the least-squares light of the image's luminance on the normals n (as if the albedo were even).
+ * It reads the photo and the normals only, never S: a shading that has collapsed to a constant
+ * (which the paper's terms and the anchor accept, with a DC light) is still pulled toward the shape
+ * of the light the photo shows. *mean is the mean of s(n, l) over the mask (0 without a face or
+ * for a dark fit). Uses image b's part of L->d_shade as scratch (and leaves it zero, as the backward
+ * expects). With L->skin the fit weighs the skin alone; the mean still takes the whole mask. */
+static hd_status image_light_fit(hd_losses *L, int b, const float *n, float l[HD_SH_COEFFS], double *mean)
 {
     hd_net *net = L->net;
     int HW = net->H * net->W;
     const float *I = L->batch->image + (size_t)b * 3 * HW, *m = L->batch->mask + (size_t)b * HW;
     float *Y = L->d_shade + (size_t)b * HW;
+    *mean = 0;
     for (int p = 0; p < HW; p++) Y[p] = 0.2126f * I[p] + 0.7152f * I[HW + p] + 0.0722f * I[2 * HW + p];
     const float *fit = m;
     if (L->skin) { /* the skin alone (hd_losses_fit_skin_only) */
@@ -125,9 +126,60 @@ static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_
         ms += m[p];
         mS += (double)m[p] * hd_sh_shade_grad(l, q, g);
     }
-    if (!(ms > 0 && mS > 0)) return HD_OK; /* no face or a dark fit: keep the fit as it is */
-    float k = (float)(L->shading_mean * ms / mS);
+    if (ms > 0 && mS > 0) *mean = mS / ms;
+    return HD_OK;
+}
+
+/* l_img scaled so that the mean of s(n, l) over the mask is the scale anchor's c (a dark fit or no
+ * face: kept as it is). */
+static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_COEFFS])
+{
+    double mean;
+    hd_status st = image_light_fit(L, b, n, l, &mean);
+    if (st != HD_OK || !(mean > 0)) return st;
+    float k = (float)(L->shading_mean / mean);
     for (int c = 0; c < HD_SH_COEFFS; c++) l[c] *= k;
+    return HD_OK;
+}
+
+/* The shading prior's targets s(N_bar, l_img) (or on N with prior_predicted), detached, for the
+ * images with N_bar. Each image's l_img is scaled so that its target's mean over the face is c;
+ * with the anchor on the pair (shading_mean_pair), one scale for both images of a pair makes the
+ * mean of the two means c, so the two targets keep the ratio of the photos' own lights (one face,
+ * one albedo: the ratio of their shadings). */
+static hd_status prior_targets(hd_losses *L)
+{
+    hd_net *net = L->net;
+    const hd_pair_batch *batch = L->batch;
+    int HW = net->H * net->W;
+    for (int p = 0; p < net->B / 2; p++) {
+        float li[2][HD_SH_COEFFS];
+        double mean[2] = {0, 0};
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            if (!batch->has_normal[b]) continue;
+            const float *Nb = L->prior_predicted ? net->normal + (size_t)b * 3 * HW : batch->coarse_normal + (size_t)b * 3 * HW;
+            hd_status st = image_light_fit(L, b, Nb, li[k], &mean[k]);
+            if (st != HD_OK) {
+                char why[300];
+                snprintf(why, sizeof why, "%s", hd_error());
+                return hd_fail(st, "the shading prior's light of image %d: %s", b, why);
+            }
+        }
+        const double both = L->shading_mean_pair && mean[0] > 0 && mean[1] > 0 ? 0.5 * (mean[0] + mean[1]) : 0;
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            if (!batch->has_normal[b]) continue;
+            const double at = both > 0 ? both : mean[k];
+            if (at > 0)
+                for (int c = 0; c < HD_SH_COEFFS; c++) li[k][c] *= (float)(L->shading_mean / at);
+            const float *Nb = L->prior_predicted ? net->normal + (size_t)b * 3 * HW : batch->coarse_normal + (size_t)b * 3 * HW;
+            hd_sh_shading_map(Nb, NULL, HW, li[k], L->prior + (size_t)b * HW);
+            for (int q = 0; q < HW; q++)
+                if (!isfinite(L->prior[(size_t)b * HW + q]))
+                    return hd_fail(HD_ERR_NUMERIC, "the shading prior of image %d is not finite", b);
+        }
+    }
     return HD_OK;
 }
 
@@ -146,22 +198,6 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
         /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
-        /* the shading prior's target, on N_bar or (prior_predicted) on N, detached; a gradient check
-         * holds it with light_hat */
-        if (batch->has_normal[b] && !(L->hold_light_hat && L->prior_predicted)) {
-            const float *Nb = L->prior_predicted ? N : batch->coarse_normal + (size_t)b * 3 * HW;
-            float li[HD_SH_COEFFS];
-            hd_status st = image_light(L, b, Nb, li);
-            if (st != HD_OK) {
-                char why[300];
-                snprintf(why, sizeof why, "%s", hd_error());
-                return hd_fail(st, "the shading prior's light of image %d: %s", b, why);
-            }
-            hd_sh_shading_map(Nb, NULL, HW, li, L->prior + (size_t)b * HW);
-            for (int p = 0; p < HW; p++)
-                if (!isfinite(L->prior[(size_t)b * HW + p]))
-                    return hd_fail(HD_ERR_NUMERIC, "the shading prior of image %d is not finite", b);
-        }
         if (L->hold_light_hat) continue;
         if (batch->has_light && batch->has_light[b]) { /* --light-target gt */
             memcpy(L->light_hat + (size_t)b * HD_SH_COEFFS, batch->light_gt + (size_t)b * HD_SH_COEFFS,
@@ -178,6 +214,9 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
             if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
                 return hd_fail(HD_ERR_NUMERIC, "the least-squares light target of image %d is not finite", b);
     }
+    /* the shading prior's targets, on N_bar or (prior_predicted) on N, detached; a gradient check
+     * holds them with light_hat */
+    if (!(L->hold_light_hat && L->prior_predicted)) return prior_targets(L);
     return HD_OK;
 }
 
