@@ -176,7 +176,10 @@ try {
     }
     return { diff: sum / n, change: moved / n, n: n / 3 };
   });
-  check(near.n > 500 && near.diff < 0.25 * near.change, 'the preview is close to the server\'s render',
+  // within 30 % of the change: the preview is the rule on the mesh alone (docs/serve.md); the server also
+  // grows the forehead to the hairline and fades the change outward there (since session 12), which the
+  // preview does not, so on this photo it differs by about 26 % of the change (under 25 % before)
+  check(near.n > 500 && near.diff < 0.3 * near.change, 'the preview is close to the server\'s render',
     `mean difference ${near.diff.toFixed(2)} levels over ${near.n} pixels, where the render changes them by ${near.change.toFixed(2)}`);
   // the canvas now holds the server's relight under preset 1, pixel for pixel
   const diff = await page.evaluate(async (id) => {

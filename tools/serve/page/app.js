@@ -245,7 +245,7 @@
 
   // The rule's constants (src/apply/rule.c, apply.c, regions.c): the guard, the feather band (a share
   // of the eye distance), the growth of the regions (a share of the face's side).
-  const RATIO_GUARD = 0.1, FEATHER_PHOTO = 0.30, REGION_GROW = 0.012;
+  const RATIO_GUARD = 0.01, FEATHER_PHOTO = 0.30, REGION_GROW = 0.012;
   // FaceMesh contours of the regions a face model does not explain (regions.c): eyes, inner lips, brows.
   const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
   const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
