@@ -40,7 +40,7 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma);
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight);
 /* Outward feather weights: 1 where inside[p] > 0.5, falling to 0 at band pixels outside it
  * (1 - smoothstep(d_p / band), d_p the chamfer distance from the region; the picture's edge is not
- * an edge here). Fails only for want of memory. */
+ * an edge here). */
 hd_status hd_field_feather_out(const float *inside, int w, int h, float band, float *weight);
 /* The smoothstep 3t^2 - 2t^3 of t clamped to [0, 1], the feathers' ramp. */
 float hd_field_smoothstep(float t);

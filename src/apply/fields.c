@@ -114,16 +114,18 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma)
 
 float hd_field_smoothstep(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
 
-/* d = the chamfer distance of each pixel to the nearest pixel where inside is <= 0.5 (0 there); with
- * edge_outside the picture's edge counts as outside too (a border pixel is one step in). */
-static void chamfer_distance(const float *inside, int w, int h, int edge_outside, float *d)
+/* d = the chamfer distance of each pixel to the nearest pixel outside the region (0 there): the
+ * region is where inside is > 0.5, or with invert where it is <= 0.5. With edge_outside the
+ * picture's edge counts as outside too (a border pixel is one step in). */
+static void chamfer_distance(const float *inside, int w, int h, int invert, int edge_outside, float *d)
 {
     const float big = 1e30f, a = 1.0f, b = 1.41421356f; /* chamfer steps: edge and diagonal */
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
             const int border = edge_outside && (x == 0 || y == 0 || x == w - 1 || y == h - 1);
-            d[p] = inside[p] <= 0.5f ? 0.0f : border ? a : big;
+            const int in = (inside[p] > 0.5f) != (invert != 0);
+            d[p] = !in ? 0.0f : border ? a : big;
         }
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
@@ -150,7 +152,7 @@ static void chamfer_distance(const float *inside, int w, int h, int edge_outside
 hd_status hd_field_feather(const float *inside, int w, int h, float band, float *weight)
 {
     size_t n = (size_t)w * h;
-    chamfer_distance(inside, w, h, 1, weight);
+    chamfer_distance(inside, w, h, 0, 1, weight);
     const float inv = band > 0 ? 1.0f / band : 0.0f;
     for (size_t p = 0; p < n; p++)
         weight[p] = band > 0 ? hd_field_smoothstep(weight[p] * inv) : (weight[p] > 0 ? 1.0f : 0.0f);
@@ -160,11 +162,7 @@ hd_status hd_field_feather(const float *inside, int w, int h, float band, float 
 hd_status hd_field_feather_out(const float *inside, int w, int h, float band, float *weight)
 {
     size_t n = (size_t)w * h;
-    float *outside = hd_malloc((n ? n : 1) * sizeof(float));
-    if (!outside) return HD_ERR_NOMEM;
-    for (size_t p = 0; p < n; p++) outside[p] = inside[p] > 0.5f ? 0.0f : 1.0f;
-    chamfer_distance(outside, w, h, 0, weight); /* the distance from the region, 0 inside it */
-    free(outside);
+    chamfer_distance(inside, w, h, 1, 0, weight); /* the distance from the region, 0 inside it */
     const float inv = band > 0 ? 1.0f / band : 0.0f;
     for (size_t p = 0; p < n; p++)
         weight[p] = band > 0 ? 1.0f - hd_field_smoothstep(weight[p] * inv) : (weight[p] > 0 ? 0.0f : 1.0f);

@@ -147,6 +147,13 @@ static hd_status image_light(hd_losses *L, int b, const float *n, float l[HD_SH_
  * with the anchor on the pair (shading_mean_pair), one scale for both images of a pair makes the
  * mean of the two means c, so the two targets keep the ratio of the photos' own lights (one face,
  * one albedo: the ratio of their shadings). */
+/* The normals image b's shading prior is rendered on: N_bar, or N with prior_predicted. */
+static const float *prior_normals(const hd_losses *L, int b)
+{
+    const size_t HW3 = (size_t)3 * L->net->H * L->net->W;
+    return L->prior_predicted ? L->net->normal + (size_t)b * HW3 : L->batch->coarse_normal + (size_t)b * HW3;
+}
+
 static hd_status prior_targets(hd_losses *L)
 {
     hd_net *net = L->net;
@@ -158,8 +165,7 @@ static hd_status prior_targets(hd_losses *L)
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
             if (!batch->has_normal[b]) continue;
-            const float *Nb = L->prior_predicted ? net->normal + (size_t)b * 3 * HW : batch->coarse_normal + (size_t)b * 3 * HW;
-            hd_status st = image_light_fit(L, b, Nb, li[k], &mean[k]);
+            hd_status st = image_light_fit(L, b, prior_normals(L, b), li[k], &mean[k]);
             if (st != HD_OK) {
                 char why[300];
                 snprintf(why, sizeof why, "%s", hd_error());
@@ -173,8 +179,7 @@ static hd_status prior_targets(hd_losses *L)
             const double at = both > 0 ? both : mean[k];
             if (at > 0)
                 for (int c = 0; c < HD_SH_COEFFS; c++) li[k][c] *= (float)(L->shading_mean / at);
-            const float *Nb = L->prior_predicted ? net->normal + (size_t)b * 3 * HW : batch->coarse_normal + (size_t)b * 3 * HW;
-            hd_sh_shading_map(Nb, NULL, HW, li[k], L->prior + (size_t)b * HW);
+            hd_sh_shading_map(prior_normals(L, b), NULL, HW, li[k], L->prior + (size_t)b * HW);
             for (int q = 0; q < HW; q++)
                 if (!isfinite(L->prior[(size_t)b * HW + q]))
                     return hd_fail(HD_ERR_NUMERIC, "the shading prior of image %d is not finite", b);

@@ -63,7 +63,7 @@ typedef struct hd_trainer {
     size_t lnet_offset;               /* first float of l_net in the parameter arena */
     hd_loss_weights weights;
     float lr;
-    float lnet_lr;   /* stage 2: HD-Net's learning rate in phase 2a (L-Net only); <= 0: lr */
+    float lnet_lr;   /* stage 2: L-Net's learning rate in phase 2a; <= 0: lr */
     hd_train_stage stage;
     long lnet_iters; /* stage 2: iterations of phase 2a (L-Net only) */
     long shading_prior_iters; /* > 0: the shading prior's weight is w (1 - it / K), 0 from it = K on */
