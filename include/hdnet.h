@@ -419,8 +419,12 @@ typedef struct hd_apply_request {
 /* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies
  * d->light; HD_SOURCE_FIT fits d->shading on d->normal over the texels where mask
  * (1 channel, any size, resized to the decomposition's; NULL: all) is > 0.5 outside the face
- * regions a face model does not explain: the least-squares light pulled (HD_SOURCE_PRIOR) toward
- * the best ambient + distant light (hd_sh_fit_lobe) of the same shading. */
+ * regions a face model does not explain, the face below the nose weighted a quarter (an
+ * expression moves it, the light does not; docs/usage.md, "The source light"): the weighted
+ * least-squares light pulled (HD_SOURCE_PRIOR) toward the best ambient + distant light
+ * (hd_sh_fit_lobe) of the same weighted shading. The weight assumes the decomposition is in the
+ * aligned texture layout (docs/spec.md section 2), as every decomposition hd_model_decompose
+ * makes is. */
 hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
                         float light[HD_SH_COEFFS]);
 

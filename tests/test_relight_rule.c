@@ -6,12 +6,15 @@
  * under the face's own light, one factor for the three channels under a grey light, the input bit
  * for bit where the mask is 0, the eyes following the skin even when the normals there are wrong,
  * the mean luminance kept, and close to A * s(N, l_target) on an exact decomposition. The face's
+ * own light: a change below the nose moves it less than an even fit. The face's
  * region in a photo: grown over the forehead's skin to the hairline and nowhere else. */
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
 #include "core/core.h"
 #include "apply/apply.h"
+#include "mesh/mesh.h"
+#include "light/light.h"
 
 static hd_image image(int w, int h, int c, float v)
 {
@@ -384,6 +387,70 @@ static void test_source_light(void)
     free_face(&d, &in, &mask);
 }
 
+/* The fit's weight: 1 down to the nose tip's row, `lower` from the mouth corners' row, falling in
+ * between; with it, a change of the shading below the nose (a smile's, not the light's) moves the
+ * face's own light less than an even fit lets it, and an exact shading still fits back exactly. */
+static void test_fit_weight(void)
+{
+    const hd_mesh *mesh;
+    CHECK(hd_mesh_canonical(&mesh) == HD_OK);
+    const int S = 128;
+    hd_image w = {0};
+    CHECK(hd_face_fit_weight_uv(S, 0.25f, &w) == HD_OK);
+    const float top = mesh->uv[2 * 1 + 1] * S, bottom = 0.5f * (mesh->uv[2 * 61 + 1] + mesh->uv[2 * 291 + 1]) * S;
+    CHECK(top > 0.4f * S && bottom < 0.8f * S && bottom > top + 8);
+    int ok = 1;
+    for (int y = 0; y < S; y++) {
+        float v = w.data[(size_t)y * S], c = y + 0.5f;
+        for (int x = 1; x < S; x++) ok &= w.data[(size_t)y * S + x] == v; /* rows are flat */
+        if (c <= top) ok &= v == 1.0f;
+        if (c >= bottom) ok &= v == 0.25f;
+        if (c > top && c < bottom) ok &= v < 1.0f && v > 0.25f;
+        if (y > 0) ok &= v <= w.data[(size_t)(y - 1) * S];
+    }
+    CHECK(ok);
+    hd_image_free(&w);
+    CHECK(hd_face_fit_weight_uv(S, 1.5f, &w) == HD_ERR_ARG);
+    CHECK(hd_face_fit_weight_uv(0, 0.25f, &w) == HD_ERR_ARG);
+
+    float src[HD_SH_COEFFS], got[HD_SH_COEFFS], even[HD_SH_COEFFS];
+    hd_light_from_direction(-30, 15, 1.0f, 0.6f, src);
+    hd_decomposition d;
+    hd_image in, mask;
+    make_face(src, &d, &in, &mask);
+    const size_t P = SIDE * SIDE;
+    /* a third more shading over the lower face's cheeks (below the mouth corners' row, off the mouth) */
+    hd_image weight = {0}, skin = {0};
+    CHECK(hd_face_fit_weight_uv(SIDE, HD_FIT_LOWER_FACE, &weight) == HD_OK);
+    CHECK(hd_face_regions_uv(SIDE, &skin) == HD_OK);
+    for (size_t p = 0; p < P; p++) {
+        if (weight.data[p] == HD_FIT_LOWER_FACE && (p % SIDE < SIDE / 3 || p % SIDE >= 2 * SIDE / 3))
+            d.shading.data[p] *= 1.3f;
+        skin.data[p] = mask.data[p] > 0.5f && skin.data[p] <= 0.5f; /* the even fit's mask: hd_face_light's skin */
+    }
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, got) == HD_OK);
+    CHECK(hd_sh_fit_toward_lobe(d.normal.data, d.shading.data, skin.data, (int)P, HD_SOURCE_PRIOR, even) == HD_OK);
+    double eg = 0, ee = 0, n = 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++) {
+        eg += (got[k] - src[k]) * (got[k] - src[k]);
+        ee += (even[k] - src[k]) * (even[k] - src[k]);
+        n += src[k] * src[k];
+    }
+    eg = sqrt(eg / n), ee = sqrt(ee / n);
+    printf("a lower-face change: the light's relative error %.4f weighted, %.4f even\n", eg, ee);
+    CHECK(eg < 0.6 * ee && ee > 0.02);
+    /* the exact shading: the weighted fit gives the light back */
+    free_face(&d, &in, &mask);
+    make_face(src, &d, &in, &mask);
+    CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, got) == HD_OK);
+    double e = 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++) e = fmax(e, fabs(got[k] - src[k]));
+    CHECK(e < 1e-4);
+    hd_image_free(&weight);
+    hd_image_free(&skin);
+    free_face(&d, &in, &mask);
+}
+
 /* The guard: g = share x the mean source shading; a smaller guard brings the rule on an exact
  * decomposition nearer A * s(N, l_target) where the source shading is low. */
 static void test_guard(void)
@@ -584,6 +651,7 @@ int main(void)
     test_fields();
     test_rule();
     test_source_light();
+    test_fit_weight();
     test_guard();
     test_eye_cap();
     test_forehead_region();

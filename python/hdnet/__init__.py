@@ -298,8 +298,8 @@ class Model:
 
     def estimate_light(self, img, aligned=False):
         """The face's own light, 9 SH coefficients (the best face of a photo): the least-squares light of
-        the predicted shading on the predicted normals over the skin, pulled toward the best ambient +
-        distant light of that shading (not decompose's light, which is L-Net's), as `hdnet
+        the predicted shading on the predicted normals over the skin (the face below the nose weighted
+        a quarter), pulled toward the best ambient + distant light of that shading (not decompose's light, which is L-Net's), as `hdnet
         estimate-light` writes it and the relighting rule uses it."""
         im, keep = _to_image(img)
         light = _light_t()

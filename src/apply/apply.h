@@ -18,6 +18,12 @@ hd_status hd_face_regions_uv(int size, hd_image *regions);
  * distance of each eye's centre (the mean of its contour), falling smoothly to 0 at outer x the eye
  * distance. */
 hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *weight);
+/* The weight of each texel in the face's own light fit (hd_face_light), size x size, 1 plane: 1
+ * down to the nose tip's row (landmark 1), falling smoothly to lower at the mouth corners' row
+ * (landmarks 61 and 291) and lower below. An expression moves the mouth, the cheeks below the
+ * nose and the jaw, the light does not: the fit leans on the face above the nose. */
+#define HD_FIT_LOWER_FACE 0.25f
+hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight);
 /* The eyes' cap: inside the eye discs (radii HD_EYE_CAP_INNER .. HD_EYE_CAP_OUTER eye distances) the
  * relighting ratio stays within a factor HD_EYE_CAP of the face's mean ratio (the geometric mean
  * over the skin), so that no light makes the eyes glow or go dark against the face. */

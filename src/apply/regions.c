@@ -62,6 +62,28 @@ hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *wei
     return HD_OK;
 }
 
+hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight)
+{
+    enum { NOSE_TIP = 1, MOUTH_RIGHT = 61, MOUTH_LEFT = 291 };
+    memset(weight, 0, sizeof *weight);
+    if (size < 1 || size > HD_IMAGE_MAX_SIDE || !(lower >= 0.0f && lower <= 1.0f))
+        return hd_fail(HD_ERR_ARG, "fit weight: size %d or lower-face weight %g out of range", size, lower);
+    const hd_mesh *mesh;
+    hd_status st = hd_mesh_canonical(&mesh);
+    if (st != HD_OK) return st;
+    if (mesh->nv <= MOUTH_LEFT)
+        return hd_fail(HD_ERR_FORMAT, "fit weight: the mesh has %d vertices, landmark %d needed", mesh->nv, MOUTH_LEFT);
+    const float top = mesh->uv[2 * NOSE_TIP + 1] * size,
+                bottom = 0.5f * (mesh->uv[2 * MOUTH_RIGHT + 1] + mesh->uv[2 * MOUTH_LEFT + 1]) * size;
+    if (!(bottom > top)) return hd_fail(HD_ERR_FORMAT, "fit weight: the mouth corners are not below the nose tip");
+    if ((st = hd_image_alloc(weight, size, size, 1)) != HD_OK) return st;
+    for (int y = 0; y < size; y++) {
+        const float t = hd_field_smoothstep((y + 0.5f - top) / (bottom - top)), w = 1.0f - t + t * lower;
+        for (int x = 0; x < size; x++) weight->data[(size_t)y * size + x] = w;
+    }
+    return HD_OK;
+}
+
 void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2])
 {
     for (int e = 0; e < 2; e++) contour_centre(EYES[e], &landmarks[0][0], 3, centres[e]);

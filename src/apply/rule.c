@@ -2,8 +2,9 @@
  * of shading, never by dividing the photo by the network's shading:
  *     out = I * r,   r = (s(N, l_target) + g) / (s(N, l_source) + g)
  * with N the predicted normals, l_source the face's own light (hd_face_light: the least-squares
- * light of the predicted shading on N over the skin, pulled toward the best ambient + distant
- * light of the same shading; or L-Net's) and g a guard (a share of the
+ * light of the predicted shading on N over the skin, the face below the nose weighted down
+ * (hd_face_fit_weight_uv), pulled toward the best ambient + distant light of the same shading;
+ * or L-Net's) and g a guard (a share of the
  * face's mean source shading, HD_RATIO_GUARD by default) where the denominator is small. r is exactly 1 when the
  * light does not change, is one factor for all three channels under a grey light, and is smooth
  * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
@@ -67,11 +68,14 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
         return hd_fail(HD_ERR_ARG,
                        "face light: the decomposition's shading and normals are not square maps of one size");
     if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "face light: a mask has 1 channel");
-    hd_image skin = {0};
+    hd_image skin = {0}, weight = {0};
     hd_status st = skin_at(mask, size, &skin);
+    if (st == HD_OK) st = hd_face_fit_weight_uv(size, HD_FIT_LOWER_FACE, &weight);
+    for (size_t p = 0; st == HD_OK && p < (size_t)size * size; p++) weight.data[p] *= skin.data[p];
     if (st == HD_OK)
-        st = hd_sh_fit_toward_lobe(d->normal.data, d->shading.data, skin.data, size * size, HD_SOURCE_PRIOR, light);
+        st = hd_sh_fit_toward_lobe(d->normal.data, d->shading.data, weight.data, size * size, HD_SOURCE_PRIOR, light);
     hd_image_free(&skin);
+    hd_image_free(&weight);
     return st;
 }
 
