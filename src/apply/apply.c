@@ -218,9 +218,7 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     return st;
 }
 
-/* The feather weights of face f in photo: from the edge of where its mask warps to, and over the
- * forehead from the hairline (forehead.c). */
-static hd_status face_feather(const hd_aligned_face *f, const hd_image *photo, float *feather)
+hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, float *feather)
 {
     hd_image warped = {0}, coverage = {0};
     hd_status st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
@@ -241,7 +239,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     job jb = {target, {{{0}}}, brightness, photo};
     face_rule fr = {{0}, 0.0f};
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
-    if (st == HD_OK) st = face_feather(f, photo, feather);
+    if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
     if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &fr, &jb);
     free(feather);
     return st;
@@ -276,7 +274,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         st = hd_model_decompose(model, &f->texture, 1, &d);
         if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
-        if (st == HD_OK && feather) st = face_feather(f, photo, feather);
+        if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &fr, &jobs[i]);
         hd_decomposition_free(&d);

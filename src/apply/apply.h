@@ -63,6 +63,11 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
  * mesh's edge (coverage) to 1 over 0.3 eye distances inside it, and above the brows from 0 at the
  * grown region's edge (the hairline) to 1 over 0.12 eye distances. */
 hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float *weight);
+/* The weights with which the ratio rule applies face f's change to photo (apply.c: hd_apply_photo,
+ * hd_relight_photo, hd_apply_face; weight photo-sized): hd_photo_face_feather of the coverage of
+ * f's mask warped into the photo (hd_warp_back). photo is the photo as given, before any face is
+ * changed. `hdnet serve` sends it to the page (its "weight" map). */
+hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, float *weight);
 
 /* The log of the relighting ratio (s(N, l_target) + g) / (s(N, l_source) + g) (rule.c) at size x
  * size texels: `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere

@@ -3,8 +3,9 @@
  * relights with are built at the photo's size: each face's predicted normals and shading, brought
  * from the model's size to the face texture's (hd_normal_resize: renormalised) and
  * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
- * faces and falls to 0 over a few pixels at their edge (the page feathers the change from it, as
- * the server's render does). The store keeps at most N photos and evicts the least
+ * faces and falls to 0 over a few pixels at their edge, and the weight the render applies each
+ * face's change with (hd_photo_face_weight: the feather inside the mesh's edge, the forehead grown
+ * to the hairline with its outward fade), which the page's preview takes. The store keeps at most N photos and evicts the least
  * recently used; a photo in use by a request is freed only when that request lets it go. */
 #include <math.h>
 #include <stdlib.h>
@@ -13,7 +14,7 @@
 #include "hdnet_tool.h"
 #include "serve.h"
 
-const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask"};
+const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -89,18 +90,32 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
     return st;
 }
 
-/* The four maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces),
- * shading as s / 2, the feathered mask. */
+/* weight = max(weight, face f's render weight); scratch is photo-sized. */
+static hd_status add_face_weight(const hd_aligned_face *f, const hd_image *photo, float *scratch, hd_image *weight)
+{
+    hd_status st = hd_photo_face_weight(f, photo, scratch);
+    for (size_t p = 0; st == HD_OK && p < (size_t)weight->width * weight->height; p++)
+        if (scratch[p] > weight->data[p]) weight->data[p] = scratch[p];
+    return st;
+}
+
+/* The five maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces),
+ * shading as s / 2, the feathered mask, the render's weight (a weight above 0 but under half a
+ * level is sent as one level, so the map is 0 exactly where the render leaves the photo as it is). */
 static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
-    hd_image normal = {0}, shading = {0}, mask = {0}, encoded = {0};
+    hd_image normal = {0}, shading = {0}, mask = {0}, weight = {0}, encoded = {0};
     hd_status st = hd_image_alloc(&normal, W, H, 3);
     if (st == HD_OK) st = hd_image_alloc(&shading, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&mask, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&weight, W, H, 1);
+    float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
+    if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
     float face_side = 0.0f;
     for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
         st = add_face_maps(&faces[k], &ds[k], &normal, &shading, &mask);
+        if (st == HD_OK) st = add_face_weight(&faces[k], &p->image, scratch, &weight);
         float side = fminf(faces[k].box[2] - faces[k].box[0], faces[k].box[3] - faces[k].box[1]);
         if (side > face_side) face_side = side;
     }
@@ -113,7 +128,12 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = serve_picture_encode_png(&encoded, &p->maps[SERVE_MAP_NORMAL]);
     if (st == HD_OK) st = serve_picture_encode_png(&shading, &p->maps[SERVE_MAP_SHADING]);
     if (st == HD_OK) st = serve_picture_encode_png(&mask, &p->maps[SERVE_MAP_MASK]);
+    for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++)
+        if (weight.data[q] > 0.0f && weight.data[q] < 0.5f / 255.0f) weight.data[q] = 1.0f / 255.0f;
+    if (st == HD_OK) st = serve_picture_encode_png(&weight, &p->maps[SERVE_MAP_WEIGHT]);
+    free(scratch);
     hd_image_free(&normal);
+    hd_image_free(&weight);
     hd_image_free(&shading);
     hd_image_free(&mask);
     hd_image_free(&encoded);

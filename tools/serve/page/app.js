@@ -1,11 +1,12 @@
 /* app.js: the `hdnet serve` page (docs/serve.md). A photo is uploaded once; the server finds and
  * decomposes its faces and sends maps at the photo's size (the photo, the predicted normals, the
- * face mask) and each face's estimated light and landmarks. While the light is dragged the page
- * relights on its own, per pixel, by the rule of docs/usage.md (relightInPage):
+ * face mask, the render's weight) and each face's estimated light and landmarks. While the light
+ * is dragged the page relights on its own, per pixel, by the rule of docs/usage.md (relightInPage):
  *     out = I * exp(w * (log r + t)),   r = (max(s(N, l), 0) + g) / (max(s(N, l_face), 0) + g)
- * with s the SH shading of docs/conventions.md, g the guard, w the feather from the face's edge,
- * the eyes, mouth and brows taking the change of the skin around them, and t the offset that keeps
- * the face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
+ * with s the SH shading of docs/conventions.md, g the guard, w the server's weight (the feather
+ * inside the mesh's edge, the forehead grown to the hairline with its outward fade), the eyes,
+ * mouth and brows taking the change of the skin around them, log r beyond the mesh filled from
+ * the mesh's (push-pull, as the render), and t the offset that keeps the face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
  * Nothing is loaded from anywhere but the server. */
 'use strict';
 (() => {
@@ -243,9 +244,9 @@
     return ctx.getImageData(0, 0, c.width, c.height);
   }
 
-  // The rule's constants (src/apply/rule.c, apply.c, regions.c): the guard, the feather band (a share
-  // of the eye distance), the growth of the regions (a share of the face's side).
-  const RATIO_GUARD = 0.01, FEATHER_PHOTO = 0.30, REGION_GROW = 0.012;
+  // The rule's constants (src/apply/rule.c, regions.c): the guard, the growth of the regions (a share
+  // of the face's side). The weights are the server's (its "weight" map).
+  const RATIO_GUARD = 0.01, REGION_GROW = 0.012;
   // FaceMesh contours of the regions a face model does not explain (regions.c): eyes, inner lips, brows.
   const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
   const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
@@ -284,54 +285,66 @@
         if (a[4 * ((y - y0) * c.width + (x - x0)) + 3] >= 128) map[y * W + x] = code;
   }
 
-  // Feather weights: smoothstep of the chamfer distance (in pixels) to the nearest pixel outside the
-  // faces (or the picture's edge) over `band` (hd_field_feather).
-  function feather(inside, W, H, band) {
-    const d = new Float32Array(W * H), a = 1, b = Math.SQRT2;
-    for (let y = 0; y < H; y++)
-      for (let x = 0; x < W; x++) {
-        const p = y * W + x;
-        d[p] = !inside[p] ? 0 : (x === 0 || y === 0 || x === W - 1 || y === H - 1) ? a : 1e30;
-      }
-    for (let y = 0; y < H; y++)
-      for (let x = 0; x < W; x++) {
-        const p = y * W + x;
-        let v = d[p];
-        if (x > 0) v = Math.min(v, d[p - 1] + a);
-        if (y > 0) v = Math.min(v, d[p - W] + a);
-        if (x > 0 && y > 0) v = Math.min(v, d[p - W - 1] + b);
-        if (x + 1 < W && y > 0) v = Math.min(v, d[p - W + 1] + b);
-        d[p] = v;
-      }
-    for (let y = H - 1; y >= 0; y--)
-      for (let x = W - 1; x >= 0; x--) {
-        const p = y * W + x;
-        let v = d[p];
-        if (x + 1 < W) v = Math.min(v, d[p + 1] + a);
-        if (y + 1 < H) v = Math.min(v, d[p + W] + a);
-        if (x + 1 < W && y + 1 < H) v = Math.min(v, d[p + W + 1] + b);
-        if (x > 0 && y + 1 < H) v = Math.min(v, d[p + W - 1] + b);
-        d[p] = v;
-      }
-    for (let p = 0; p < W * H; p++) {
-      const t = Math.min(d[p] / band, 1);
-      d[p] = t * t * (3 - 2 * t);
+  // Push-pull filling (hd_field_fill, src/apply/fields.c), over a pyramid kept from one frame to the
+  // next: level 0 is the fill window; each level halves it. fillField fills lv[0].v where lv[0].wt < 1
+  // from the values around (wt 1 known, 0 unknown), as the render fills log r beyond the mesh.
+  function pyramid(w, h) {
+    const lv = [];
+    for (;;) {
+      lv.push({ w, h, v: new Float32Array(w * h), wt: new Float32Array(w * h) });
+      if (w === 1 && h === 1) return lv;
+      w = (w + 1) >> 1, h = (h + 1) >> 1;
     }
-    return d;
+  }
+  function fillLevel(lv, k) {
+    const { w, h, v, wt } = lv[k];
+    let done = true;
+    for (let p = 0; p < w * h && done; p++) done = wt[p] >= 1;
+    if (done || k + 1 === lv.length) return;
+    const { w: W2, h: H2, v: cv, wt: cw } = lv[k + 1];
+    cv.fill(0), cw.fill(0);
+    for (let y = 0; y < h; y++) // push: 2 x 2 sums of the weighted values and weights
+      for (let x = 0; x < w; x++) {
+        const c = (y >> 1) * W2 + (x >> 1), p = y * w + x;
+        cv[c] += v[p] * wt[p];
+        cw[c] += wt[p];
+      }
+    for (let c = 0; c < W2 * H2; c++)
+      if (cw[c] > 0) {
+        cv[c] /= cw[c];
+        if (cw[c] > 1) cw[c] = 1;
+      }
+    fillLevel(lv, k + 1);
+    for (let y = 0; y < h; y++) { // pull: what a cell lacks in weight comes from the coarser level, bilinearly
+      const fy = (y + 0.5) / 2 - 0.5, y0 = Math.floor(fy), ay = fy - y0;
+      const r0 = Math.max(0, Math.min(H2 - 1, y0)) * W2, r1 = Math.max(0, Math.min(H2 - 1, y0 + 1)) * W2;
+      for (let x = 0; x < w; x++) {
+        const p = y * w + x;
+        if (wt[p] >= 1) continue;
+        const fx = (x + 0.5) / 2 - 0.5, x0 = Math.floor(fx), ax = fx - x0;
+        const c0 = Math.max(0, Math.min(W2 - 1, x0)), c1 = Math.max(0, Math.min(W2 - 1, x0 + 1));
+        const coarse = (1 - ay) * ((1 - ax) * cv[r0 + c0] + ax * cv[r0 + c1]) + ay * ((1 - ax) * cv[r1 + c0] + ax * cv[r1 + c1]);
+        const a = wt[p] < 0 ? 0 : wt[p];
+        v[p] = a * v[p] + (1 - a) * coarse;
+        wt[p] = 1;
+      }
+    }
   }
 
-  // Keeps, for each pixel of a face, what the rule needs: I, N, its face's source shading
-  // s(N, l_face), the face's guard, the feather weight, and which region (or the ring around one)
-  // it is in. Each pixel belongs to the last face whose landmarks' extent holds it, as the maps do.
-  function prepareMaps(photo, normal, mask, faces) {
+  // Keeps, for each pixel the render may change (the server's weight map above 0), what the rule
+  // needs: I, the weight w, and on the faces' meshes N, its face's source shading s(N, l_face), the
+  // face's guard and which region (or the ring around one) it is in; the pixels beyond the meshes
+  // (the forehead up to the hairline, the fade into the hair) take log r filled from the meshes'
+  // (fillField over a window around them). Each pixel belongs to the last face whose landmarks'
+  // extent, grown by an eye distance, holds it.
+  function prepareMaps(photo, normal, mask, weight, faces) {
     const W = photo.width, H = photo.height, n = W * H;
-    const inside = new Uint8Array(n), owner = new Int16Array(n).fill(-1);
-    for (let p = 0; p < n; p++) inside[p] = mask.data[4 * p] > 0 ? 1 : 0;
+    const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
-      const xs = f.landmarks.map((q) => q[0]), ys = f.landmarks.map((q) => q[1]);
-      const x0 = Math.max(0, Math.floor(Math.min(...xs)) - 2), x1 = Math.min(W, Math.ceil(Math.max(...xs)) + 2);
-      const y0 = Math.max(0, Math.floor(Math.min(...ys)) - 2), y1 = Math.min(H, Math.ceil(Math.max(...ys)) + 2);
-      for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) if (inside[y * W + x]) owner[y * W + x] = k;
+      const xs = f.landmarks.map((q) => q[0]), ys = f.landmarks.map((q) => q[1]), e = Math.ceil(eyeDistance(f)) + 2;
+      const x0 = Math.max(0, Math.floor(Math.min(...xs)) - e), x1 = Math.min(W, Math.ceil(Math.max(...xs)) + e);
+      const y0 = Math.max(0, Math.floor(Math.min(...ys)) - e), y1 = Math.min(H, Math.ceil(Math.max(...ys)) + e);
+      for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) if (weight.data[4 * (y * W + x)] > 0) owner[y * W + x] = k;
     });
     // regions: code 1 + 2 (5 k + r) inside region r of face k, that + 1 on the ring around it
     const regions = new Int32Array(n);
@@ -345,35 +358,55 @@
       }
       for (let p = 0; p < n; p++) if (ring[p] && !regions[p]) regions[p] = ring[p];
     });
-    // one band for the photo: the smallest face's (apply.c feathers each face by its own)
-    const weight = feather(inside, W, H, Math.min(...faces.map((f) => Math.max(2, FEATHER_PHOTO * eyeDistance(f)))));
-    let count = 0;
-    for (let p = 0; p < n; p++) if (owner[p] >= 0 && weight[p] > 0) count++;
-    const m = { W, H, n: count, base: photo, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
+    let count = 0, bx0 = W, by0 = H, bx1 = 0, by1 = 0;
+    for (let p = 0; p < n; p++)
+      if (owner[p] >= 0) {
+        count++;
+        const x = p % W, y = (p - x) / W;
+        bx0 = Math.min(bx0, x), bx1 = Math.max(bx1, x + 1), by0 = Math.min(by0, y), by1 = Math.max(by1, y + 1);
+      }
+    // the fill window: the changed pixels' extent, its corner on a multiple of 64 pixels as the
+    // render's pyramid over the whole photo has its cells
+    const wx0 = bx0 & ~63, wy0 = by0 & ~63, wx1 = Math.min(W, (bx1 + 63) & ~63), wy1 = Math.min(H, (by1 + 63) & ~63);
+    const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
-      region: new Int32Array(count), codes: 2 * REGIONS.length * faces.length + 2 };
+      region: new Int32Array(count), onMesh: new Uint8Array(count), cell: new Int32Array(count), beyond: 0,
+      codes: 2 * REGIONS.length * faces.length + 2,
+      fill: count ? pyramid(Math.max(1, wx1 - wx0), Math.max(1, wy1 - wy0)) : null, known: null };
     const sum = new Float64Array(faces.length), num = new Float64Array(faces.length);
     let j = 0;
     for (let p = 0; p < n; p++) {
       const k = owner[p];
-      if (k < 0 || !(weight[p] > 0)) continue;
-      let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
-      const len = Math.hypot(x, y, z) || 1;
-      x /= len, y /= len, z /= len;
+      if (k < 0) continue;
+      const px = p % W, py = (p - px) / W;
       m.px[j] = p;
+      m.cell[j] = (py - wy0) * (wx1 - wx0) + (px - wx0);
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
-      m.w[j] = weight[p];
-      m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
-      m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
-      m.region[j] = regions[p];
-      if (regions[p] % 2 === 0) sum[k] += m.src[j], num[k]++; // the skin: outside the regions
+      m.w[j] = weight.data[4 * p] / 255;
       m.guard[j] = k;
+      if (mask.data[4 * p] > 0) {
+        let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
+        const len = Math.hypot(x, y, z) || 1;
+        x /= len, y /= len, z /= len;
+        m.onMesh[j] = 1;
+        m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
+        m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
+        m.region[j] = regions[p];
+        if (regions[p] % 2 === 0) sum[k] += m.src[j], num[k]++; // the skin: outside the regions
+      } else {
+        m.beyond++;
+      }
       j++;
     }
     for (let i = 0; i < count; i++) {
       const k = m.guard[i];
       m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
+    }
+    if (m.fill) { // the known cells of the fill: where a mesh covers, in the window
+      m.known = new Float32Array(m.fill[0].w * m.fill[0].h);
+      for (let y = wy0; y < wy1; y++)
+        for (let x = wx0; x < wx1; x++) if (mask.data[4 * (y * W + x)] > 0) m.known[(y - wy0) * (wx1 - wx0) + (x - wx0)] = 1;
     }
     return m;
   }
@@ -386,6 +419,7 @@
     const m = state.maps, l = currentLight(), d = m.out.data;
     const L = new Float32Array(m.n), ringSum = new Float64Array(m.codes), ringNum = new Float64Array(m.codes);
     for (let j = 0; j < m.n; j++) {
+      if (!m.onMesh[j]) continue;
       const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), g = m.guard[j];
       L[j] = t === m.src[j] ? 0 : Math.log((t + g) / (m.src[j] + g));
       const r = m.region[j];
@@ -394,6 +428,14 @@
     for (let j = 0; j < m.n; j++) {
       const r = m.region[j];
       if (r % 2 === 1) L[j] = ringNum[r] > 0 ? ringSum[r] / ringNum[r] : 0;
+    }
+    if (m.beyond) { // beyond the meshes: log r filled from the meshes' (hd_field_fill, as the render)
+      const f = m.fill[0];
+      f.v.fill(0);
+      f.wt.set(m.known);
+      for (let j = 0; j < m.n; j++) if (m.onMesh[j]) f.v[m.cell[j]] = L[j];
+      fillLevel(m.fill, 0);
+      for (let j = 0; j < m.n; j++) if (!m.onMesh[j]) L[j] = f.v[m.cell[j]];
     }
     const lum = new Float32Array(m.n);
     let goal = 0;
@@ -484,9 +526,9 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, mask] = await Promise.all(['photo', 'normal', 'mask'].map((k) => mapPixels(j.maps[k])));
+      const [photo, normal, mask, weight] = await Promise.all(['photo', 'normal', 'mask', 'weight'].map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, mask, j.faces);
+      state.maps = prepareMaps(photo, normal, mask, weight, j.faces);
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
