@@ -5,7 +5,10 @@
  * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
  * faces and falls to 0 over a few pixels at their edge, and the weight the render applies each
  * face's change with (hd_photo_face_weight: the feather inside the mesh's edge, the forehead grown
- * to the hairline with its outward fade), which the page's preview takes. The store keeps at most N photos and evicts the least
+ * to the hairline with its outward fade), the skin where the render's log r is the model's own
+ * (the mesh outside the eyes, mouth and brows of hd_face_regions_uv) and the eyes' cap weight
+ * (hd_face_eye_discs_uv), each warped as the render warps its field: the page's preview takes
+ * them. The store keeps at most N photos and evicts the least
  * recently used; a photo in use by a request is freed only when that request lets it go. */
 #include <math.h>
 #include <stdlib.h>
@@ -14,7 +17,7 @@
 #include "hdnet_tool.h"
 #include "serve.h"
 
-const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight"};
+const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight", "skin", "eyes"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -61,32 +64,41 @@ static hd_status feather(hd_image *mask, int r)
     return st;
 }
 
-/* Adds face f's normals and shading (decomposition d) to the photo-sized maps where its warp
- * covers; a later face overwrites an earlier one, as hd_relight_photo blends them in order. */
-static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, hd_image *normal,
-                               hd_image *shading, hd_image *mask)
+/* The photo-sized maps the maps are built in (before encoding). */
+typedef struct face_maps {
+    hd_image normal, shading, mask, skin, eyes;
+} face_maps;
+
+/* Adds face f's normals and shading (decomposition d), its skin (the mesh outside the regions the
+ * render fills: hd_face_regions_uv) and its eyes' cap (hd_face_eye_discs_uv) to the photo-sized
+ * maps where its warp covers; a later face overwrites an earlier one, as hd_relight_photo blends
+ * them in order. */
+static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, face_maps *fm)
 {
-    hd_image n_tex = {0}, s_tex = {0}, n_ph = {0}, s_ph = {0}, cover = {0}, cover2 = {0};
+    hd_image n_tex = {0}, s_tex = {0}, r_tex = {0}, e_tex = {0}, n_ph = {0}, s_ph = {0}, r_ph = {0}, e_ph = {0};
+    hd_image cover = {0}, cover2 = {0}, cover3 = {0}, cover4 = {0};
     hd_status st = hd_normal_resize(&d->normal, f->size, f->size, &n_tex);
     if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
+    if (st == HD_OK) st = hd_face_regions_uv(f->size, &r_tex);
+    if (st == HD_OK) st = hd_face_eye_discs_uv(f->size, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &e_tex);
     if (st == HD_OK) st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
     if (st == HD_OK) st = hd_warp_back(f, &s_tex, &f->mask, &s_ph, &cover2);
+    if (st == HD_OK) st = hd_warp_back(f, &r_tex, &f->mask, &r_ph, &cover3);
+    if (st == HD_OK) st = hd_warp_back(f, &e_tex, &f->mask, &e_ph, &cover4);
     if (st == HD_OK) {
         hd_normal_renormalise(&n_ph);
-        const size_t HW = (size_t)normal->width * normal->height;
+        const size_t HW = (size_t)fm->normal.width * fm->normal.height;
         for (size_t p = 0; p < HW; p++) {
             if (cover.data[p] <= 0.0f) continue;
-            for (int c = 0; c < 3; c++) normal->data[c * HW + p] = n_ph.data[c * HW + p];
-            shading->data[p] = s_ph.data[p];
-            mask->data[p] = 1.0f;
+            for (int c = 0; c < 3; c++) fm->normal.data[c * HW + p] = n_ph.data[c * HW + p];
+            fm->shading.data[p] = s_ph.data[p];
+            fm->mask.data[p] = 1.0f;
+            fm->skin.data[p] = r_ph.data[p] <= 0.5f ? 1.0f : 0.0f;
+            fm->eyes.data[p] = e_ph.data[p];
         }
     }
-    hd_image_free(&n_tex);
-    hd_image_free(&s_tex);
-    hd_image_free(&n_ph);
-    hd_image_free(&s_ph);
-    hd_image_free(&cover);
-    hd_image_free(&cover2);
+    hd_image *all[] = {&n_tex, &s_tex, &r_tex, &e_tex, &n_ph, &s_ph, &r_ph, &e_ph, &cover, &cover2, &cover3, &cover4};
+    for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }
 
@@ -99,44 +111,47 @@ static hd_status add_face_weight(const hd_aligned_face *f, const hd_image *photo
     return st;
 }
 
-/* The five maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces),
- * shading as s / 2, the feathered mask, the render's weight (a weight above 0 but under half a
- * level is sent as one level, so the map is 0 exactly where the render leaves the photo as it is). */
+/* The maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces), shading as
+ * s / 2, the feathered mask, the render's weight (a weight above 0 but under half a level is sent
+ * as one level, so the map is 0 exactly where the render leaves the photo as it is), the skin (1
+ * where the render's log r is the model's own, 0 where it is filled) and the eyes' cap weight. */
 static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
-    hd_image normal = {0}, shading = {0}, mask = {0}, weight = {0}, encoded = {0};
-    hd_status st = hd_image_alloc(&normal, W, H, 3);
-    if (st == HD_OK) st = hd_image_alloc(&shading, W, H, 1);
-    if (st == HD_OK) st = hd_image_alloc(&mask, W, H, 1);
+    face_maps fm = {0};
+    hd_image weight = {0}, encoded = {0};
+    hd_status st = hd_image_alloc(&fm.normal, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&fm.shading, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&fm.mask, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&fm.skin, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&fm.eyes, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&weight, W, H, 1);
     float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
     if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
     float face_side = 0.0f;
     for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
-        st = add_face_maps(&faces[k], &ds[k], &normal, &shading, &mask);
+        st = add_face_maps(&faces[k], &ds[k], &fm);
         if (st == HD_OK) st = add_face_weight(&faces[k], &p->image, scratch, &weight);
         float side = fminf(faces[k].box[2] - faces[k].box[0], faces[k].box[3] - faces[k].box[1]);
         if (side > face_side) face_side = side;
     }
-    if (st == HD_OK) st = hd_normal_encode(&normal, &mask, &encoded);
-    if (st == HD_OK) st = feather(&mask, (int)fmaxf(2.0f, roundf(0.02f * face_side)));
+    if (st == HD_OK) st = hd_normal_encode(&fm.normal, &fm.mask, &encoded);
+    if (st == HD_OK) st = feather(&fm.mask, (int)fmaxf(2.0f, roundf(0.02f * face_side)));
     if (st == HD_OK) {
-        for (size_t q = 0; q < (size_t)W * H; q++) shading.data[q] *= 0.5f;
+        for (size_t q = 0; q < (size_t)W * H; q++) fm.shading.data[q] *= 0.5f;
         st = serve_picture_encode_png(&p->image, &p->maps[SERVE_MAP_PHOTO]);
     }
     if (st == HD_OK) st = serve_picture_encode_png(&encoded, &p->maps[SERVE_MAP_NORMAL]);
-    if (st == HD_OK) st = serve_picture_encode_png(&shading, &p->maps[SERVE_MAP_SHADING]);
-    if (st == HD_OK) st = serve_picture_encode_png(&mask, &p->maps[SERVE_MAP_MASK]);
+    if (st == HD_OK) st = serve_picture_encode_png(&fm.shading, &p->maps[SERVE_MAP_SHADING]);
+    if (st == HD_OK) st = serve_picture_encode_png(&fm.mask, &p->maps[SERVE_MAP_MASK]);
     for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++)
         if (weight.data[q] > 0.0f && weight.data[q] < 0.5f / 255.0f) weight.data[q] = 1.0f / 255.0f;
     if (st == HD_OK) st = serve_picture_encode_png(&weight, &p->maps[SERVE_MAP_WEIGHT]);
+    if (st == HD_OK) st = serve_picture_encode_png(&fm.skin, &p->maps[SERVE_MAP_SKIN]);
+    if (st == HD_OK) st = serve_picture_encode_png(&fm.eyes, &p->maps[SERVE_MAP_EYES]);
     free(scratch);
-    hd_image_free(&normal);
-    hd_image_free(&weight);
-    hd_image_free(&shading);
-    hd_image_free(&mask);
-    hd_image_free(&encoded);
+    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &fm.eyes, &weight, &encoded};
+    for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }
 

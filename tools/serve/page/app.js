@@ -244,45 +244,18 @@
     return ctx.getImageData(0, 0, c.width, c.height);
   }
 
-  // The rule's constants (src/apply/rule.c, regions.c): the guard, the growth of the regions (a share
-  // of the face's side). The weights are the server's (its "weight" map).
-  const RATIO_GUARD = 0.01, REGION_GROW = 0.012;
-  // FaceMesh contours of the regions a face model does not explain (regions.c): eyes, inner lips, brows.
+  // The rule's constants (src/apply/rule.c, apply.h): the guard, the eyes' cap, the blur of log r (a
+  // share of the texture's side) and the eye distance in the texture (models/canonical_face_model.obj's
+  // UV layout), which turns it into photo pixels. The weights, the skin and the eyes' discs are the
+  // server's maps.
+  const RATIO_GUARD = 0.01, EYE_CAP = 1.08, RATIO_BLUR = 0.012, EYE_DISTANCE_UV = 0.3076;
   const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
   const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
-  const REGIONS = [RIGHT_EYE, LEFT_EYE,
-    [78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191],
-    [46, 53, 52, 65, 55, 107, 66, 105, 63, 70], [276, 283, 282, 295, 285, 336, 296, 334, 293, 300]];
 
   function eyeDistance(f) {
     const c = [RIGHT_EYE, LEFT_EYE].map((e) => e.reduce((a, i) => [a[0] + f.landmarks[i][0] / e.length,
       a[1] + f.landmarks[i][1] / e.length], [0, 0]));
     return Math.hypot(c[1][0] - c[0][0], c[1][1] - c[0][1]);
-  }
-
-  // Region r of face f drawn into a W x H byte map as `code` (the polygon grown by `grow` pixels).
-  function drawRegion(map, W, H, f, r, grow, code) {
-    const pts = REGIONS[r].map((i) => f.landmarks[i]);
-    const x0 = Math.max(0, Math.floor(Math.min(...pts.map((p) => p[0])) - grow - 1));
-    const y0 = Math.max(0, Math.floor(Math.min(...pts.map((p) => p[1])) - grow - 1));
-    const x1 = Math.min(W, Math.ceil(Math.max(...pts.map((p) => p[0])) + grow + 1));
-    const y1 = Math.min(H, Math.ceil(Math.max(...pts.map((p) => p[1])) + grow + 1));
-    if (x1 <= x0 || y1 <= y0) return;
-    const c = document.createElement('canvas');
-    c.width = x1 - x0;
-    c.height = y1 - y0;
-    const ctx = c.getContext('2d', { willReadFrequently: true });
-    ctx.beginPath();
-    pts.forEach((p, k) => (k ? ctx.lineTo : ctx.moveTo).call(ctx, p[0] - x0, p[1] - y0));
-    ctx.closePath();
-    ctx.fill();
-    ctx.lineWidth = 2 * grow;
-    ctx.lineJoin = 'round';
-    ctx.stroke();
-    const a = ctx.getImageData(0, 0, c.width, c.height).data;
-    for (let y = y0; y < y1; y++)
-      for (let x = x0; x < x1; x++)
-        if (a[4 * ((y - y0) * c.width + (x - x0)) + 3] >= 128) map[y * W + x] = code;
   }
 
   // Push-pull filling (hd_field_fill, src/apply/fields.c), over a pyramid kept from one frame to the
@@ -331,13 +304,63 @@
     }
   }
 
+  // Gaussian blur of a w x h plane in place, sd sigma pixels (hd_field_blur: separable, edges
+  // clamped). Past a radius of 10 pixels (a face over about 80 pixels between the eyes), three box
+  // passes along the rows and three along the columns whose widths give sigma's variance instead,
+  // so that a frame's cost per pixel does not grow with the face.
+  function blur(v, w, h, sigma, tmp) {
+    if (!(sigma > 0.3)) return;
+    const r = Math.ceil(3 * sigma);
+    if (r > 10) return blurBoxes(v, w, h, sigma, tmp);
+    const k = new Float32Array(2 * r + 1);
+    let sum = 0;
+    for (let i = -r; i <= r; i++) sum += k[i + r] = Math.exp(-0.5 * i * i / (sigma * sigma));
+    for (let i = 0; i <= 2 * r; i++) k[i] /= sum;
+    for (let y = 0; y < h; y++)
+      for (let x = 0; x < w; x++) {
+        let acc = 0;
+        for (let i = -r; i <= r; i++) acc += k[i + r] * v[y * w + Math.min(w - 1, Math.max(0, x + i))];
+        tmp[y * w + x] = acc;
+      }
+    for (let y = 0; y < h; y++)
+      for (let x = 0; x < w; x++) {
+        let acc = 0;
+        for (let i = -r; i <= r; i++) acc += k[i + r] * tmp[Math.min(h - 1, Math.max(0, y + i)) * w + x];
+        v[y * w + x] = acc;
+      }
+  }
+  function blurBoxes(v, w, h, sigma, tmp) {
+    let wl = Math.floor(Math.sqrt(4 * sigma * sigma + 1)); // odd widths wl and wl + 2 (Wells, 1986)
+    if (wl % 2 === 0) wl--;
+    const m = Math.round((12 * sigma * sigma - 3 * wl * wl - 12 * wl - 9) / (-4 * wl - 4));
+    for (let i = 0; i < 3; i++) {
+      const r = ((i < m ? wl : wl + 2) - 1) / 2;
+      boxPass(v, tmp, w, h, r, w, 1);
+      boxPass(tmp, v, h, w, r, 1, w);
+    }
+  }
+  // out = the mean of src over 2r + 1 samples along each of `lines` lines of n samples (step apart;
+  // lines lineStep apart), the ends clamped.
+  function boxPass(src, out, n, lines, r, lineStep, step) {
+    const norm = 1 / (2 * r + 1);
+    for (let l = 0; l < lines; l++) {
+      const o = l * lineStep;
+      let acc = 0;
+      for (let i = -r; i <= r; i++) acc += src[o + Math.min(n - 1, Math.max(0, i)) * step];
+      for (let i = 0; i < n; i++) {
+        out[o + i * step] = acc * norm;
+        acc += src[o + Math.min(n - 1, i + r + 1) * step] - src[o + Math.max(0, i - r) * step];
+      }
+    }
+  }
+
   // Keeps, for each pixel the render may change (the server's weight map above 0), what the rule
-  // needs: I, the weight w, and on the faces' meshes N, its face's source shading s(N, l_face), the
-  // face's guard and which region (or the ring around one) it is in; the pixels beyond the meshes
-  // (the forehead up to the hairline, the fade into the hair) take log r filled from the meshes'
-  // (fillField over a window around them). Each pixel belongs to the last face whose landmarks'
-  // extent, grown by an eye distance, holds it.
-  function prepareMaps(photo, normal, mask, weight, faces) {
+  // needs: I, the weight w, its face, the eyes' cap weight, and on the faces' skin (the server's skin
+  // map: the meshes outside the eyes, mouth and brows) N and the source shading s(N, l_face); the
+  // rest (those regions, the forehead beyond the mesh up to the hairline, the fade into the hair)
+  // takes log r filled from the skin's over a window around the faces. Each pixel belongs to the
+  // last face whose landmarks' extent, grown by an eye distance, holds it.
+  function prepareMaps(photo, normal, weight, skin, eyes, faces) {
     const W = photo.width, H = photo.height, n = W * H;
     const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
@@ -345,18 +368,6 @@
       const x0 = Math.max(0, Math.floor(Math.min(...xs)) - e), x1 = Math.min(W, Math.ceil(Math.max(...xs)) + e);
       const y0 = Math.max(0, Math.floor(Math.min(...ys)) - e), y1 = Math.min(H, Math.ceil(Math.max(...ys)) + e);
       for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) if (weight.data[4 * (y * W + x)] > 0) owner[y * W + x] = k;
-    });
-    // regions: code 1 + 2 (5 k + r) inside region r of face k, that + 1 on the ring around it
-    const regions = new Int32Array(n);
-    faces.forEach((f, k) => {
-      const side = Math.max(f.box[2] - f.box[0], f.box[3] - f.box[1]), grow = Math.max(1, REGION_GROW * side);
-      const ring = new Int32Array(n);
-      for (let r = 0; r < REGIONS.length; r++) {
-        const code = 1 + 2 * (REGIONS.length * k + r);
-        drawRegion(ring, W, H, f, r, 3 * grow, code + 1);
-        drawRegion(regions, W, H, f, r, grow, code);
-      }
-      for (let p = 0; p < n; p++) if (ring[p] && !regions[p]) regions[p] = ring[p];
     });
     let count = 0, bx0 = W, by0 = H, bx1 = 0, by1 = 0;
     for (let p = 0; p < n; p++)
@@ -368,12 +379,14 @@
     // the fill window: the changed pixels' extent, its corner on a multiple of 64 pixels as the
     // render's pyramid over the whole photo has its cells
     const wx0 = bx0 & ~63, wy0 = by0 & ~63, wx1 = Math.min(W, (bx1 + 63) & ~63), wy1 = Math.min(H, (by1 + 63) & ~63);
+    const ww = Math.max(1, wx1 - wx0), wh = Math.max(1, wy1 - wy0);
     const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
-      region: new Int32Array(count), onMesh: new Uint8Array(count), cell: new Int32Array(count), beyond: 0,
-      codes: 2 * REGIONS.length * faces.length + 2,
-      fill: count ? pyramid(Math.max(1, wx1 - wx0), Math.max(1, wy1 - wy0)) : null, known: null };
+      face: new Int16Array(count), skin: new Uint8Array(count), eye: new Float32Array(count), cell: new Int32Array(count),
+      faces: faces.length, fill: count ? pyramid(ww, wh) : null, known: new Float32Array(count ? ww * wh : 0),
+      blurTmp: new Float32Array(count ? ww * wh : 0),
+      sigma: RATIO_BLUR / EYE_DISTANCE_UV * Math.min(...faces.map(eyeDistance)) };
     const sum = new Float64Array(faces.length), num = new Float64Array(faces.length);
     let j = 0;
     for (let p = 0; p < n; p++) {
@@ -381,62 +394,60 @@
       if (k < 0) continue;
       const px = p % W, py = (p - px) / W;
       m.px[j] = p;
-      m.cell[j] = (py - wy0) * (wx1 - wx0) + (px - wx0);
+      m.cell[j] = (py - wy0) * ww + (px - wx0);
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
       m.w[j] = weight.data[4 * p] / 255;
-      m.guard[j] = k;
-      if (mask.data[4 * p] > 0) {
+      m.face[j] = k;
+      m.eye[j] = eyes.data[4 * p] / 255;
+      if (skin.data[4 * p] > 0) {
         let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
         const len = Math.hypot(x, y, z) || 1;
         x /= len, y /= len, z /= len;
-        m.onMesh[j] = 1;
+        m.skin[j] = 1;
+        m.known[m.cell[j]] = 1;
         m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
         m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
-        m.region[j] = regions[p];
-        if (regions[p] % 2 === 0) sum[k] += m.src[j], num[k]++; // the skin: outside the regions
-      } else {
-        m.beyond++;
+        sum[k] += m.src[j], num[k]++;
       }
       j++;
     }
     for (let i = 0; i < count; i++) {
-      const k = m.guard[i];
+      const k = m.face[i];
       m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
-    }
-    if (m.fill) { // the known cells of the fill: where a mesh covers, in the window
-      m.known = new Float32Array(m.fill[0].w * m.fill[0].h);
-      for (let y = wy0; y < wy1; y++)
-        for (let x = wx0; x < wx1; x++) if (mask.data[4 * (y * W + x)] > 0) m.known[(y - wy0) * (wx1 - wx0) + (x - wx0)] = 1;
     }
     return m;
   }
 
   // The rule of docs/usage.md per pixel: out = I * exp(w * (log r + t)),
-  // r = (max(s(N, l), 0) + g) / (s(N, l_face) + g), the regions taking the mean log r of the ring
-  // around them, t the one offset that keeps the w-weighted mean luminance (--keep-brightness), the
+  // r = (max(s(N, l), 0) + g) / (s(N, l_face) + g) on the skin, filled from the skin's over the
+  // regions and beyond the meshes (push-pull, as the render), held within the eyes' cap of the
+  // face's mean, t the one offset that keeps the w-weighted mean luminance (--keep-brightness), the
   // factor lowered for a pixel where a channel would pass 1.
   function relightInPage() {
     const m = state.maps, l = currentLight(), d = m.out.data;
-    const L = new Float32Array(m.n), ringSum = new Float64Array(m.codes), ringNum = new Float64Array(m.codes);
+    const L = new Float32Array(m.n), mean = new Float64Array(m.faces), num = new Float64Array(m.faces);
     for (let j = 0; j < m.n; j++) {
-      if (!m.onMesh[j]) continue;
+      if (!m.skin[j]) continue;
       const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), g = m.guard[j];
       L[j] = t === m.src[j] ? 0 : Math.log((t + g) / (m.src[j] + g));
-      const r = m.region[j];
-      if (r && r % 2 === 0) ringSum[r - 1] += L[j], ringNum[r - 1]++;
+      mean[m.face[j]] += L[j], num[m.face[j]]++;
     }
-    for (let j = 0; j < m.n; j++) {
-      const r = m.region[j];
-      if (r % 2 === 1) L[j] = ringNum[r] > 0 ? ringSum[r] / ringNum[r] : 0;
-    }
-    if (m.beyond) { // beyond the meshes: log r filled from the meshes' (hd_field_fill, as the render)
+    if (m.fill) { // the regions and beyond the meshes: log r filled from the skin's (hd_field_fill)
       const f = m.fill[0];
       f.v.fill(0);
       f.wt.set(m.known);
-      for (let j = 0; j < m.n; j++) if (m.onMesh[j]) f.v[m.cell[j]] = L[j];
+      for (let j = 0; j < m.n; j++) if (m.skin[j]) f.v[m.cell[j]] = L[j];
       fillLevel(m.fill, 0);
-      for (let j = 0; j < m.n; j++) if (!m.onMesh[j]) L[j] = f.v[m.cell[j]];
+      blur(f.v, f.w, f.h, m.sigma, m.blurTmp);
+      for (let j = 0; j < m.n; j++) L[j] = f.v[m.cell[j]];
     }
+    const cap = Math.log(EYE_CAP); // hd_ratio_cap_eyes: within a factor EYE_CAP of the face's mean ratio
+    for (let k = 0; k < m.faces; k++) mean[k] = num[k] > 0 ? mean[k] / num[k] : 0;
+    for (let j = 0; j < m.n; j++)
+      if (m.eye[j] > 0) {
+        const mu = mean[m.face[j]], c = Math.min(mu + cap, Math.max(mu - cap, L[j]));
+        L[j] += m.eye[j] * (c - L[j]);
+      }
     const lum = new Float32Array(m.n);
     let goal = 0;
     for (let j = 0; j < m.n; j++) {
@@ -526,9 +537,10 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, mask, weight] = await Promise.all(['photo', 'normal', 'mask', 'weight'].map((k) => mapPixels(j.maps[k])));
+      const [photo, normal, weight, skin, eyes] = await Promise.all(['photo', 'normal', 'weight', 'skin', 'eyes']
+        .map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, mask, weight, j.faces);
+      state.maps = prepareMaps(photo, normal, weight, skin, eyes, j.faces);
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
