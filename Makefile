@@ -176,9 +176,12 @@ $(BUILD)/header_example.inc: include/hdnet.h
 	@mkdir -p $(dir $@)
 	sed -n '/^ \* Example/,/^ \*\//p' $< | sed -e '1d' -e '$$d' -e 's/^ \*     //' -e 's/^ \*$$//' | grep -v '^#include' > $@.tmp && mv $@.tmp $@
 
-tests: $(TESTBIN) $(BUILD)/hdnet $(BUILD)/libhdnet.so
+# Helpers the shell tests run (tests/serve_weight.c: the check of `hdnet serve`'s weight map).
+TESTHELPERS := $(BUILD)/tests/serve_weight
 
--include $(OBJ:.o=.d) $(TOOLOBJ:.o=.d) $(TESTBIN:=.d)
+tests: $(TESTBIN) $(TESTHELPERS) $(BUILD)/hdnet $(BUILD)/libhdnet.so
+
+-include $(OBJ:.o=.d) $(TOOLOBJ:.o=.d) $(TESTBIN:=.d) $(TESTHELPERS:=.d)
 
 # Runs each C test, then each shell test (which drive the built hdnet tool), all of them, ending with
 # "N passed, N failed" (and a nonzero status if any failed).
