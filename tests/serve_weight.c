@@ -47,8 +47,8 @@ int main(int argc, char **argv)
             const float got = served.data[p] * 255.0f, want = weight[p] * 255.0f;
             some += want > 0;
             if (fabsf(got - want) > 1.0f + 1e-3f || (want > 0) != (got > 0.5f)) {
-                fprintf(stderr, "serve_weight: pixel (%zu, %zu): the server's weight %.1f / 255, the library's %.3f / 255\n",
-                        p % (size_t)photo.width, p / (size_t)photo.width, got, want);
+                fprintf(stderr, "serve_weight: pixel (%zu, %zu): the server's weight %.1f / 255, "
+                        "the library's %.3f / 255\n", p % (size_t)photo.width, p / (size_t)photo.width, got, want);
                 rc = 1;
             }
         }

@@ -1,12 +1,14 @@
 /* app.js: the `hdnet serve` page (docs/serve.md). A photo is uploaded once; the server finds and
- * decomposes its faces and sends maps at the photo's size (the photo, the predicted normals, the
- * face mask, the render's weight) and each face's estimated light and landmarks. While the light
- * is dragged the page relights on its own, per pixel, by the rule of docs/usage.md (relightInPage):
+ * decomposes its faces and sends maps at the photo's size (the photo, the predicted normals, and
+ * the render's weight, skin and eyes' cap) and each face's estimated light and landmarks. While
+ * the light is dragged the page relights on its own, per pixel, by the rule of docs/usage.md
+ * (relightInPage):
  *     out = I * exp(w * (log r + t)),   r = (max(s(N, l), 0) + g) / (max(s(N, l_face), 0) + g)
  * with s the SH shading of docs/conventions.md, g the guard, w the server's weight (the feather
  * inside the mesh's edge, the forehead grown to the hairline with its outward fade), the eyes,
- * mouth and brows taking the change of the skin around them, log r beyond the mesh filled from
- * the mesh's (push-pull, as the render), and t the offset that keeps the face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
+ * mouth and brows and the pixels beyond the mesh taking log r filled from the skin's (push-pull,
+ * as the render), blurred and capped at the eyes as the render's, and t the offset that keeps the
+ * face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
  * Nothing is loaded from anywhere but the server. */
 'use strict';
 (() => {
@@ -53,7 +55,7 @@
   };
   const state = {
     photo: null,      // the upload's JSON (id, size, faces, maps)
-    maps: null,       // the decoded maps, over the masked pixels only
+    maps: null,       // the decoded maps, over the pixels the render may change only
     presets: [],
     light: { kind: 'direction', azimuth: 0, elevation: 0, intensity: 1.5, ambient: 0.5, preset: -1, coeffs: null, ref: null },
     view: 'preview',  // 'preview' (in the page), 'server' (a render), 'before' (the photo as uploaded)
