@@ -246,6 +246,13 @@ static void test_gradients(void)
     t.losses.prior_predicted = 1;
     check_gradients(&t, "shading_prior (predicted normals)", 0, 1, 1e-3f, 0);
     t.losses.prior_predicted = 0;
+    /* L_Irec through a camera colour gain per image (--rec-gain camera): A*S*g against I */
+    static const float gains[2][3] = {{1.25f, 0.98f, 0.76f}, {0.8f, 1.02f, 1.2f}};
+    memcpy(t.batch.camera_gain, gains, sizeof gains);
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_REC] = 1.0f;
+    check_gradients(&t, "rec (camera gain)", 0, 1, 1e-3f, 0);
+    for (int k = 0; k < 6; k++) t.batch.camera_gain[k] = 1.0f;
     t.weights = all;
     /* the domain weight scales every term but L_adv: at weight 0 they vanish, and doubling it
      * doubles them */
@@ -864,6 +871,122 @@ static void test_albedo_supervised(void)
     hd_trainer_free(&t);
 }
 
+/* ---- the camera's colour gain: L_Irec by hand with and without it, NAME.camera.txt read into the
+ * batch by the loader, and clear errors for a malformed record */
+
+static hd_status write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return HD_ERR_IO;
+    int ok = fputs(text, f) >= 0;
+    return fclose(f) == 0 && ok ? HD_OK : HD_ERR_IO;
+}
+
+static void test_rec_camera_gain(void)
+{
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, 32, 2)) return;
+    size_t HW = 32 * 32;
+    static const float gains[4][3] = {{1.2f, 1.0f, 0.8f}, {1.0f, 1.0f, 1.0f}, {0.85f, 1.05f, 1.1f}, {1.3f, 0.9f, 0.7f}};
+    hd_step_result r1, rg;
+    CHECK(hd_trainer_eval(&t, &r1, HD_EVAL_LOSS) == HD_OK);
+    memcpy(t.batch.camera_gain, gains, sizeof gains);
+    CHECK(hd_trainer_eval(&t, &rg, HD_EVAL_LOSS) == HD_OK);
+    double want[2] = {0, 0};
+    for (int b = 0; b < 4; b++)
+        for (int k = 0; k < 2; k++) {
+            double num = 0, den = 0;
+            for (int c = 0; c < 3; c++)
+                for (size_t p = 0; p < HW; p++) {
+                    double m = t.batch.mask[b * HW + p], g = k ? gains[b][c] : 1.0;
+                    double rec = (double)t.net.albedo[(b * 3 + c) * HW + p] * t.net.shading[b * HW + p] * g;
+                    num += m * fabs(t.batch.image[(b * 3 + c) * HW + p] - rec);
+                    den += m;
+                }
+            want[k] += t.batch.weight[b] * num / den / 2; /* the mean over 2 pairs */
+        }
+    CHECK_NEAR(r1.terms[HD_LOSS_REC], want[0], 1e-5);
+    CHECK_NEAR(rg.terms[HD_LOSS_REC], want[1], 1e-5);
+    CHECK(fabs(rg.terms[HD_LOSS_REC] - r1.terms[HD_LOSS_REC]) > 1e-3); /* the gain matters */
+    for (int k = HD_LOSS_REC + 1; k < HD_LOSS_TERMS; k++) CHECK(rg.terms[k] == r1.terms[k]); /* only L_Irec sees it */
+    hd_trainer_free(&t);
+
+    /* the record: light colour times white balance; the other effects' lines skipped */
+    const char *path = "camera_gain.txt";
+    float g[3] = {0, 0, 0};
+    CHECK(write_text(path, "light_colour 1.1000 1.0000 0.9000\nblur_sigma 0.74\nnoise 0.018 0.000044\n"
+                              "white_balance 1.2000 0.9900 0.8000\njpeg_quality 62\n") == HD_OK);
+    CHECK(hd_camera_gain_read(path, g) == HD_OK);
+    CHECK_NEAR(g[0], 1.32, 1e-5);
+    CHECK_NEAR(g[1], 0.99, 1e-5);
+    CHECK_NEAR(g[2], 0.72, 1e-5);
+    CHECK(write_text(path, "blur_sigma 1.2\n") == HD_OK);
+    CHECK(hd_camera_gain_read(path, g) == HD_OK);
+    CHECK(g[0] == 1.0f && g[1] == 1.0f && g[2] == 1.0f);
+    static const char *const bad[] = {"white_balance 1.2 1.0\n", "white_balance 1.2 1.0 0.8 0.9\n", "light_colour 1.2 x 0.8\n",
+                                      "white_balance 1.2 -1 0.8\n", "white_balance 1.2 nan 0.8\n", "blur 0.7\n",
+                                      "jpeg_quality\n"};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        g[0] = g[1] = g[2] = 5.0f;
+        CHECK(write_text(path, bad[k]) == HD_OK);
+        CHECK(hd_camera_gain_read(path, g) == HD_ERR_FORMAT);
+        CHECK(strstr(hd_error(), "camera_gain.txt:1:") != NULL);
+        CHECK(g[0] == 5.0f); /* untouched on failure */
+    }
+    CHECK(hd_camera_gain_read("no_such.camera.txt", g) == HD_ERR_IO && strstr(hd_error(), "no_such.camera.txt"));
+    remove(path);
+
+    /* the loader: every image of camdata has a record; its gain reaches the batch only when the
+     * source reads it, and a malformed record skips the pair with a warning naming the file */
+    if (!write_dataset("camdata", 32)) {
+        test_failures++;
+        return;
+    }
+    char file[128];
+    for (int person = 0; person < 2; person++)
+        for (int k = 0; k < 4; k++) {
+            snprintf(file, sizeof file, "camdata/person%d/img%d.camera.txt", person, k);
+            CHECK(write_text(file, "white_balance 1.2000 1.0000 0.8000\nlight_colour 0.9000 1.0000 1.1000\n") == HD_OK);
+        }
+    hd_dataset ds;
+    hd_pair_source src;
+    int skipped, first;
+    CHECK(hd_dataset_scan("camdata", &ds, NULL) == HD_OK);
+    CHECK(ds.count == 8 && ds.samples[0].camera && strstr(ds.samples[0].camera, "img0.camera.txt"));
+    CHECK(hd_pair_source_init(&src, &ds, 0, 0, &skipped, &first) == HD_OK);
+    src.size = 32;
+    src.seed = 3;
+    hd_pair_batch b;
+    CHECK(hd_pair_batch_alloc(&b, 2, 32) == HD_OK);
+    for (int on = 0; on < 2; on++) {
+        src.camera_gain = on;
+        hd_loader L = {0};
+        L.src = &src;
+        L.batch = &b;
+        hd_loader_start(&L, 0);
+        CHECK(hd_loader_wait(&L, NULL) == HD_OK);
+        for (int slot = 0; slot < 4; slot++) {
+            CHECK_NEAR(b.camera_gain[slot * 3 + 0], on ? 1.08 : 1.0, 1e-5);
+            CHECK_NEAR(b.camera_gain[slot * 3 + 1], 1.0, 1e-6);
+            CHECK_NEAR(b.camera_gain[slot * 3 + 2], on ? 0.88 : 1.0, 1e-5);
+        }
+    }
+    CHECK(write_text("camdata/person1/img2.camera.txt", "white_balance 1.2 1.0\n") == HD_OK);
+    int warned = 0;
+    for (long it = 0; it < 40 && !warned; it++) {
+        hd_loader L = {0};
+        L.src = &src;
+        L.batch = &b;
+        hd_loader_start(&L, it);
+        CHECK(hd_loader_wait(&L, NULL) == HD_OK); /* replaced by the slot's next draw */
+        warned = strstr(L.warnings, "camdata/person1/img2.camera.txt:1: white_balance takes 3 numbers") != NULL;
+    }
+    CHECK(warned);
+    hd_pair_batch_free(&b);
+    hd_pair_source_free(&src);
+    hd_dataset_free(&ds);
+}
+
 /* ---- the scale anchor by hand, per image and on the pair: |mean_m S - c| */
 
 /* ---- the shading prior: its target on a grey face under a known light, its value, its warm-up */
@@ -1273,6 +1396,7 @@ int main(void)
     test_micro_batch();
     test_paths();
     test_albedo_supervised();
+    test_rec_camera_gain();
     test_shading_mean();
     test_shading_prior();
     test_shading_prior_options();

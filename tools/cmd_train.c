@@ -62,7 +62,7 @@ static void on_progress(const hd_train_progress *p, void *user)
 int cmd_train(int argc, char **argv)
 {
     const char *out = NULL, *weights = "gt", *init = NULL, *dump = NULL, *prior = "coarse", *light_target = "fit",
-               *anchor_over = "image", *prior_on = "coarse", *light_fit = "face";
+               *anchor_over = "image", *prior_on = "coarse", *light_fit = "face", *rec_gain = "none";
     int stage = 1, iters = 1000, batch = 0, size = 0, width = 0, resume = 0, threads = 0, every = 100, seed = 1;
     int lnet_iters = -1, quiet = 0, micro = 0, prior_iters = 0;
     float time_limit = 0, lr = 0, lnet_lr = 0, shading_mean = HD_SHADING_MEAN_DEFAULT, real_share = 0.5f, real_weight = 1.0f;
@@ -123,6 +123,9 @@ int cmd_train(int argc, char **argv)
         {"light-fit", 0, CLI_OPT_STRING, &light_fit, "face|skin",
          "not the paper's: the photo's own light (the shading prior's, --light-target image's) fitted"
          " to the whole face (default) or to the skin alone, without the eyes, brows and lips"},
+        {"rec-gain", 0, CLI_OPT_STRING, &rec_gain, "none|camera",
+         "not the paper's: L_Irec compares A*S with the image (default) or A*S*g, g the colour gain"
+         " (light colour times white balance) of NAME.camera.txt where there is one"},
         {"every", 0, CLI_OPT_INT, &every, "K", "checkpoint, loss plot and sample sheet every K iterations (default 100)"},
         {"seed", 0, CLI_OPT_INT, &seed, "N", "seed of the initialisation and the data order (default 1)"},
         {"init", 0, CLI_OPT_STRING, &init, "MODEL", "start from this model (or checkpoint) instead of a fresh init"},
@@ -197,6 +200,9 @@ int cmd_train(int argc, char **argv)
     o.light_target_image = strcmp(light_target, "image") == 0;
     o.shading_prior_predicted = strcmp(prior_on, "predicted") == 0;
     o.light_fit_skin = strcmp(light_fit, "skin") == 0;
+    if (strcmp(rec_gain, "none") != 0 && strcmp(rec_gain, "camera") != 0)
+        return cli_usage_error(&spec, "--rec-gain must be none or camera, not '%s'", rec_gain);
+    o.rec_gain = strcmp(rec_gain, "camera") == 0 ? HD_REC_GAIN_CAMERA : HD_REC_GAIN_NONE;
     if (!(shading_mean > 0.0f && shading_mean < 100.0f)) return cli_usage_error(&spec, "--shading-mean must be in (0, 100)");
     o.shading_mean = shading_mean;
     if (prior_iters < 0) return cli_usage_error(&spec, "--shading-prior-iters must not be negative");

@@ -1,14 +1,17 @@
-/* dataset.c: scanning SPEC section 5 folders into a sorted list of samples with their companions. */
+/* dataset.c: scanning SPEC section 5 folders into a sorted list of samples with their companions,
+ * and reading a camera record's colour gain (NAME.camera.txt). */
 #include <dirent.h>
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <errno.h>
 #include "core/core.h"
 #include "io/dataset.h"
 
-static const char *const companion_suffix[] = {".mask.png", ".normal.png", ".albedo.png",
-                                               ".normal_gt.png", ".shading.png", ".light.txt"};
-enum { N_COMPANIONS = 6 };
+static const char *const companion_suffix[] = {".mask.png",    ".normal.png", ".albedo.png", ".normal_gt.png",
+                                               ".shading.png", ".light.txt",  ".camera.txt"};
+enum { N_COMPANIONS = 7 };
 
 static int ends_with(const char *s, const char *suffix)
 {
@@ -110,7 +113,7 @@ static hd_status scan_subject(hd_dataset *ds, int *cap, const char *subject_dir,
             ds->count++;
             break;
         }
-        char **slots[N_COMPANIONS] = {&s->mask, &s->normal, &s->albedo, &s->normal_gt, &s->shading, &s->light};
+        char **slots[N_COMPANIONS] = {&s->mask, &s->normal, &s->albedo, &s->normal_gt, &s->shading, &s->light, &s->camera};
         for (int k = 0; k < N_COMPANIONS; k++) {
             size_t len = strlen(s->name) + strlen(companion_suffix[k]) + 1;
             char *file = malloc(len);
@@ -191,6 +194,7 @@ void hd_dataset_free(hd_dataset *ds)
         free(s->normal_gt);
         free(s->shading);
         free(s->light);
+        free(s->camera);
     }
     free(ds->samples);
     free(ds->subject_start);
@@ -205,4 +209,61 @@ long hd_dataset_pair_count(const hd_dataset *ds)
         pairs += k * (k - 1) / 2;
     }
     return pairs;
+}
+
+/* The effects of a camera record and how many numbers each line holds; colour ones multiply the gain. */
+static const struct {
+    const char *name;
+    int numbers, colour;
+} camera_effects[] = {
+    {"light_colour", 3, 1}, {"blur_sigma", 1, 0}, {"noise", 2, 0}, {"white_balance", 3, 1}, {"jpeg_quality", 1, 0},
+};
+
+hd_status hd_camera_gain_read(const char *path, float gain[3])
+{
+    char *text = NULL;
+    size_t n = 0;
+    hd_status st = hd_read_file(path, 1 << 16, &text, &n);
+    if (st != HD_OK) return st;
+    float g[3] = {1.0f, 1.0f, 1.0f};
+    int line = 0;
+    for (char *p = text, *next; p && *p && st == HD_OK; p = next) {
+        line++;
+        next = strchr(p, '\n');
+        if (next) *next++ = '\0';
+        char word[32];
+        int used = 0;
+        if (sscanf(p, " %31s%n", word, &used) != 1) continue; /* a blank line */
+        int k = 0, K = (int)(sizeof camera_effects / sizeof camera_effects[0]);
+        while (k < K && strcmp(word, camera_effects[k].name) != 0) k++;
+        if (k == K) {
+            st = hd_fail(HD_ERR_FORMAT, "%s:%d: unknown camera effect '%s' (light_colour, blur_sigma, noise, "
+                                        "white_balance or jpeg_quality)", path, line, word);
+            break;
+        }
+        double v[4];
+        int count = 0, len;
+        const char *q = p + used;
+        while (count < 4 && sscanf(q, "%lf%n", &v[count], &len) == 1) {
+            q += len;
+            count++;
+        }
+        while (*q == ' ' || *q == '\t' || *q == '\r') q++;
+        if (count != camera_effects[k].numbers || *q) {
+            st = hd_fail(HD_ERR_FORMAT, "%s:%d: %s takes %d number%s", path, line, word, camera_effects[k].numbers,
+                         camera_effects[k].numbers == 1 ? "" : "s");
+            break;
+        }
+        if (!camera_effects[k].colour) continue;
+        for (int c = 0; c < 3; c++) {
+            if (!(isfinite(v[c]) && v[c] > 0.0 && v[c] < 10.0)) {
+                st = hd_fail(HD_ERR_FORMAT, "%s:%d: %s gain %g is not in (0, 10)", path, line, word, v[c]);
+                break;
+            }
+            g[c] *= (float)v[c];
+        }
+    }
+    free(text);
+    if (st == HD_OK) memcpy(gain, g, sizeof g);
+    return st;
 }

@@ -254,7 +254,8 @@ static void shade_backward(hd_losses *L)
 /* The domain weight of image b (1 without weights). */
 static float wgt(const hd_losses *L, int b) { return L->batch->weight ? L->batch->weight[b] : 1.0f; }
 
-/* L_Irec = mean_m(|I - A*S|), S broadcast over colour. */
+/* L_Irec = mean_m(|I - A*S*g|), S broadcast over colour; g the camera's colour gain of the image
+ * (batch->camera_gain; 1, the paper's, where none is recorded or read). */
 double hd_loss_reconstruction(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
@@ -262,19 +263,20 @@ double hd_loss_reconstruction(hd_losses *L, float scale)
     double sum = 0;
     for (int b = 0; b < B; b++) {
         const float *A = net->albedo + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW;
+        const float one[3] = {1.0f, 1.0f, 1.0f}, *g = L->batch->camera_gain ? L->batch->camera_gain + (size_t)b * 3 : one;
         float *rec = L->recon + (size_t)b * 3 * HW, *drec = L->d_recon + (size_t)b * 3 * HW;
         for (int c = 0; c < 3; c++)
-            for (int p = 0; p < HW; p++) rec[(size_t)c * HW + p] = A[(size_t)c * HW + p] * S[p];
+            for (int p = 0; p < HW; p++) rec[(size_t)c * HW + p] = A[(size_t)c * HW + p] * S[p] * g[c];
         if (scale != 0.0f) memset(drec, 0, (size_t)3 * HW * sizeof(float));
         sum += wgt(L, b) * hd_loss_l1(scale != 0.0f ? drec : NULL, NULL, rec, L->batch->image + (size_t)b * 3 * HW,
                                       L->batch->mask + (size_t)b * HW, 3, HW, scale * wgt(L, b) / P);
         if (scale == 0.0f) continue;
-        /* rec = A * S: dA += drec * S, dS += sum_c drec * A */
+        /* rec = A * S * g: dA += drec * S * g, dS += sum_c drec * A * g */
         float *dA = net->d_albedo + (size_t)b * 3 * HW, *dS = net->d_shading + (size_t)b * HW;
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) {
-                dA[(size_t)c * HW + p] += drec[(size_t)c * HW + p] * S[p];
-                dS[p] += drec[(size_t)c * HW + p] * A[(size_t)c * HW + p];
+                dA[(size_t)c * HW + p] += drec[(size_t)c * HW + p] * S[p] * g[c];
+                dS[p] += drec[(size_t)c * HW + p] * A[(size_t)c * HW + p] * g[c];
             }
     }
     return sum / P;

@@ -17,7 +17,7 @@
 #define HD_SHADING_MEAN_DEFAULT 0.8f
 
 typedef enum hd_loss_term {
-    HD_LOSS_REC = 0, /* L_Irec: mean_m |I - A*S| */
+    HD_LOSS_REC = 0, /* L_Irec: mean_m |I - A*S| (A*S*g with the batch's camera gain g: --rec-gain camera) */
     HD_LOSS_ALBEDO,  /* L_a: mean_{m_i m_j} |A_i - A_j| */
     HD_LOSS_SMOOTH,  /* L_s: shading smoothness */
     HD_LOSS_NORMAL,  /* L_n: ||N_bar - N||^2 */

@@ -69,6 +69,7 @@ static hd_status open_data(const hd_train_options *o, hd_dataset *ds, hd_pair_so
     if ((s = hd_pair_source_init(src, ds, stage1, o->prior_normals_gt, &skipped, &first_skipped)) != HD_OK) return s;
     src->albedo_gt = o->weights.w[HD_LOSS_ALBEDO_GT] > 0.0f;
     src->light_gt = o->light_target_gt;
+    src->camera_gain = o->rec_gain == HD_REC_GAIN_CAMERA;
     if (skipped && o->warn) {
         char msg[600];
         snprintf(msg, sizeof msg, "stage 1 needs coarse normals: %d image(s) without NAME.normal.png left out (first: %s)",

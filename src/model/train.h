@@ -24,6 +24,13 @@ typedef struct hd_train_progress {
     int finished;               /* 1 on the extra call after the run's last step */
 } hd_train_progress;
 
+/* What L_Irec's A*S is compared with the image through (not the paper's). */
+typedef enum hd_rec_gain {
+    HD_REC_GAIN_NONE = 0, /* A*S against I (the paper's) */
+    HD_REC_GAIN_CAMERA    /* A*S*g against I, g the colour gain of the image's NAME.camera.txt (light colour
+                           * times white balance; 1 without one): the albedo stays the scene's (--rec-gain camera) */
+} hd_rec_gain;
+
 typedef struct hd_train_options {
     const char *data_dir, *run_dir;
     hd_train_stage stage;
@@ -50,6 +57,7 @@ typedef struct hd_train_options {
     float real_weight;     /* domain weight of real pairs in every term but L_adv (default 1) */
     int mirror_pairs;      /* a real pair is, half the time, one photo and its mirror image */
     int real_same_light;   /* the real pairs of one person were taken under one light (L_lpair) */
+    hd_rec_gain rec_gain;  /* L_Irec through the recorded camera colour gain (default none) */
     long every;            /* checkpoint, plot and samples every K iterations */
     uint64_t seed;
     const char *init_model; /* may be NULL */

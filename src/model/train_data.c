@@ -1,6 +1,7 @@
 /* train_data.c: the training data (train_data.h): the batch itself (hd_pair_batch_alloc/free),
  * the pairs of a dataset, pair q of (seed, iteration), loading one sample into a batch slot
- * (resized, masked where it has no normal, flipped with its normals and light), and the loader
+ * (resized, masked where it has no normal, flipped with its normals and light, with its camera's
+ * colour gain), and the loader
  * thread that fills the next batch. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,9 +28,12 @@ hd_status hd_pair_batch_alloc(hd_pair_batch *b, int pairs, int size)
     b->has_light = hd_calloc(B, 1);
     b->weight = hd_calloc(B, sizeof(float));
     b->pair_light = hd_calloc((size_t)pairs, 1);
+    b->camera_gain = hd_calloc(B * 3, sizeof(float));
     if (b->weight)
         for (size_t i = 0; i < B; i++) b->weight[i] = 1.0f;
-    if (!b->weight || !b->pair_light || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
+    if (b->camera_gain)
+        for (size_t i = 0; i < B * 3; i++) b->camera_gain[i] = 1.0f;
+    if (!b->camera_gain || !b->weight || !b->pair_light || !b->image || !b->mask || !b->coarse_normal || !b->has_normal || !b->albedo_gt || !b->has_albedo ||
         !b->light_gt || !b->has_light) {
         hd_pair_batch_free(b);
         return HD_ERR_NOMEM;
@@ -49,6 +53,7 @@ void hd_pair_batch_free(hd_pair_batch *b)
     free(b->has_light);
     free(b->weight);
     free(b->pair_light);
+    free(b->camera_gain);
     memset(b, 0, sizeof *b);
 }
 
@@ -166,6 +171,9 @@ static hd_status load_sample(const hd_pair_source *src, int i, int flip, hd_pair
     } else {
         memset(lgt, 0, HD_SH_COEFFS * sizeof(float));
     }
+    float *gain = batch->camera_gain + (size_t)slot * 3;
+    gain[0] = gain[1] = gain[2] = 1.0f; /* a flip leaves the colour as it is */
+    if (src->camera_gain && smp->camera && (s = hd_camera_gain_read(smp->camera, gain)) != HD_OK) goto done;
     batch->has_albedo[slot] = src->albedo_gt && smp->albedo;
     if (batch->has_albedo[slot]) {
         if ((s = read_sized(smp->albedo, 3, size, &al)) != HD_OK) goto done;

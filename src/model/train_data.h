@@ -27,6 +27,9 @@ typedef struct hd_pair_batch {
                                 * L_adv (a pair term takes image i's); 1 unless set (mixed batches) */
     unsigned char *pair_light; /* (P) how the pair's two lights relate, an hd_pair_light; NULL in a view:
                                 * HD_PAIR_LIGHT_NONE (not the paper's; read by L_lpair only) */
+    float *camera_gain;        /* (B, 3) the colour gain g the camera put on the image (NAME.camera.txt,
+                                * with --rec-gain camera), 1 where none; NULL in a view: all 1. L_Irec
+                                * compares A * S * g with I (not the paper's) */
 } hd_pair_batch;
 
 /* How the two lights of a pair relate, where the data says so (L_lpair, not the paper's). */
@@ -51,6 +54,7 @@ typedef struct hd_pair_source {
     int prior_gt;  /* the prior normals N_bar are the ground-truth normals (NAME.normal_gt.png) */
     int albedo_gt; /* load the ground-truth albedo (NAME.albedo.png) for the albedo_gt term */
     int light_gt;  /* l_hat is the ground-truth light (NAME.light.txt) where there is one */
+    int camera_gain; /* read each image's colour gain from NAME.camera.txt where there is one (else 1) */
     uint64_t seed;
 } hd_pair_source;
 

@@ -99,7 +99,8 @@ static hd_pair_batch chunk_of(const hd_trainer *t, int c)
                        b->coarse_normal + first * 3 * HW, b->has_normal + first,
                        b->albedo_gt + first * 3 * HW, b->has_albedo + first,
                        b->light_gt + first * HD_SH_COEFFS, b->has_light + first, b->weight ? b->weight + first : NULL,
-                       b->pair_light ? b->pair_light + (size_t)c * t->micro : NULL};
+                       b->pair_light ? b->pair_light + (size_t)c * t->micro : NULL,
+                       b->camera_gain ? b->camera_gain + first * 3 : NULL};
     return v;
 }
 
