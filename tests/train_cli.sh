@@ -151,6 +151,20 @@ expect 0 $H train data -o pairprior $T --iters 1 --every 1 --shading-mean-over p
 [ "$(sed -n 2p imageprior/loss.csv | cut -d, -f3-9)" = "$(sed -n 2p pairprior/loss.csv | cut -d, -f3-9)" ] ||
     fail "--shading-mean-over pair changed the first step's paper terms"
 
+# the camera's colour gain in L_Irec: on a set where every image has a white balance cast, the
+# first step's rec (column 3) changes and no other term does; a bad value is a usage error, and a
+# malformed record is a warning that names the file
+expect 2 $H train data -o y --rec-gain nope
+expect 0 $H synth cam --subjects 2 --per-subject 3 --size 32 --seed 4 --camera 1 --camera-effects white-balance --threads 1
+expect 0 $H train cam -o camoff $T --iters 1 --every 1
+expect 0 $H train cam -o camon $T --iters 1 --every 1 --rec-gain camera
+[ "$(sed -n 2p camoff/loss.csv | cut -d, -f3)" != "$(sed -n 2p camon/loss.csv | cut -d, -f3)" ] ||
+    fail "--rec-gain camera did not change L_Irec on a white-balanced set"
+[ "$(sed -n 2p camoff/loss.csv | cut -d, -f4-13)" = "$(sed -n 2p camon/loss.csv | cut -d, -f4-13)" ] ||
+    fail "--rec-gain camera changed a term other than L_Irec"
+for f in cam/subject_0000/*.camera.txt; do echo "white_balance 1.2" > "$f"; done
+expect_saying 0 "camera.txt:1: white_balance takes 3 numbers" $H train cam -o cambad $T --iters 4 --every 4 --rec-gain camera
+
 # mixed domains: a second set without ground truth (the images of another synth set, alone);
 # drawn from it only (--real-share 1) the ground-truth term reads nothing, drawn never it does,
 # and --mirror-pairs makes pairs of a single image per subject
