@@ -75,29 +75,37 @@ typedef struct face_maps {
  * them in order. */
 static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, face_maps *fm)
 {
-    hd_image n_tex = {0}, s_tex = {0}, r_tex = {0}, e_tex = {0}, n_ph = {0}, s_ph = {0}, r_ph = {0}, e_ph = {0};
-    hd_image cover = {0}, cover2 = {0}, cover3 = {0}, cover4 = {0};
+    /* two warps: the normals, and the shading, regions and eyes as the planes of one texture
+     * (hd_warp_back takes at most 4 channels) */
+    hd_image n_tex = {0}, r_tex = {0}, e_tex = {0}, s_tex = {0}, tex = {0}, n_ph = {0}, ph = {0}, cover = {0},
+             cover2 = {0};
     hd_status st = hd_normal_resize(&d->normal, f->size, f->size, &n_tex);
     if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
     if (st == HD_OK) st = hd_face_regions_uv(f->size, &r_tex);
     if (st == HD_OK) st = hd_face_eye_discs_uv(f->size, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &e_tex);
-    if (st == HD_OK) st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
-    if (st == HD_OK) st = hd_warp_back(f, &s_tex, &f->mask, &s_ph, &cover2);
-    if (st == HD_OK) st = hd_warp_back(f, &r_tex, &f->mask, &r_ph, &cover3);
-    if (st == HD_OK) st = hd_warp_back(f, &e_tex, &f->mask, &e_ph, &cover4);
+    if (st == HD_OK) st = hd_image_alloc(&tex, f->size, f->size, 3);
+    if (st == HD_OK) {
+        const size_t T = (size_t)f->size * f->size;
+        memcpy(tex.data, s_tex.data, T * sizeof(float));
+        memcpy(tex.data + T, r_tex.data, T * sizeof(float));
+        memcpy(tex.data + 2 * T, e_tex.data, T * sizeof(float));
+        st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
+    }
+    if (st == HD_OK) st = hd_warp_back(f, &tex, &f->mask, &ph, &cover2);
     if (st == HD_OK) {
         hd_normal_renormalise(&n_ph);
         const size_t HW = (size_t)fm->normal.width * fm->normal.height;
+        const float *shading = ph.data, *regions = ph.data + HW, *eyes = ph.data + 2 * HW;
         for (size_t p = 0; p < HW; p++) {
             if (cover.data[p] <= 0.0f) continue;
             for (int c = 0; c < 3; c++) fm->normal.data[c * HW + p] = n_ph.data[c * HW + p];
-            fm->shading.data[p] = s_ph.data[p];
+            fm->shading.data[p] = shading[p];
             fm->mask.data[p] = 1.0f;
-            fm->skin.data[p] = r_ph.data[p] <= 0.5f ? 1.0f : 0.0f;
-            fm->eyes.data[p] = e_ph.data[p];
+            fm->skin.data[p] = regions[p] <= 0.5f ? 1.0f : 0.0f;
+            fm->eyes.data[p] = eyes[p];
         }
     }
-    hd_image *all[] = {&n_tex, &s_tex, &r_tex, &e_tex, &n_ph, &s_ph, &r_ph, &e_ph, &cover, &cover2, &cover3, &cover4};
+    hd_image *all[] = {&n_tex, &r_tex, &e_tex, &s_tex, &tex, &n_ph, &ph, &cover, &cover2};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }
