@@ -192,6 +192,18 @@ static void test_fields(void)
     on = 1;
     for (int p = 0; p < W * H; p++) on &= w[p] == 0.0f;
     CHECK(on); /* no region: no change anywhere */
+    /* holes: a ring's inside is filled, a notch open to the picture's edge and the outside are not */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const int ring = x >= 5 && x < 35 && y >= 5 && y < 25 && !(x >= 12 && x < 18 && y >= 12 && y < 18);
+            const int notch = x >= 25 && x < 30 && y >= 15; /* from inside the ring down to the edge */
+            known[y * W + x] = ring && !notch ? 0.8f : 0.2f;
+        }
+    CHECK(hd_field_fill_holes(known, W, H) == HD_OK);
+    CHECK(known[14 * W + 14] == 1.0f && known[12 * W + 17] == 1.0f); /* the hole, set to 1 */
+    CHECK(known[10 * W + 10] == 0.8f);                               /* the ring, unchanged */
+    CHECK(known[20 * W + 27] == 0.2f && known[2 * W + 2] == 0.2f);   /* the notch, the outside */
+    CHECK(hd_field_fill_holes(known, 0, 0) == HD_OK);
 }
 
 #define SIDE 64
@@ -638,6 +650,48 @@ static void test_forehead_region(void)
     }
 }
 
+/* A real face (tests/data/faces-london/001/smiling.jpg): the face mesh's coverage has holes (the nostrils,
+ * the line between the lips), and the weight the change applies with is whole over them rather
+ * than fading to 0 around each. */
+static void test_photo_weight_holes(void)
+{
+    const char *td = getenv("HDNET_TESTDATA");
+    char path[4200];
+    snprintf(path, sizeof path, "%s/faces-london/001/smiling.jpg", td ? td : "tests/data");
+    hd_image photo = {0}, warped = {0}, cover = {0};
+    hd_aligned_face *faces = NULL;
+    int n = 0;
+    CHECK(hd_image_read_as(path, 3, &photo) == HD_OK);
+    CHECK(photo.data && hd_align_photo(&photo, 128, &faces, &n) == HD_OK && n >= 1);
+    if (n < 1) {
+        hd_image_free(&photo);
+        return;
+    }
+    const size_t P = (size_t)photo.width * photo.height;
+    float *filled = malloc(P * sizeof *filled), *w = malloc(P * sizeof *w);
+    CHECK(filled && w && hd_warp_back(&faces[0], &faces[0].mask, NULL, &warped, &cover) == HD_OK);
+    if (filled && w && cover.data) {
+        memcpy(filled, cover.data, P * sizeof *filled);
+        CHECK(hd_field_fill_holes(filled, photo.width, photo.height) == HD_OK);
+        CHECK(hd_photo_face_weight(&faces[0], &photo, w) == HD_OK);
+        size_t holes = 0;
+        double in_holes = 0;
+        for (size_t p = 0; p < P; p++)
+            if (cover.data[p] <= 0.5f && filled[p] > 0.5f) holes++, in_holes += w[p];
+        /* between the inner lips (FaceMesh 13 and 14) */
+        const float *a = faces[0].landmarks[13], *b = faces[0].landmarks[14];
+        const int mx = (int)(0.5f * (a[0] + b[0])), my = (int)(0.5f * (a[1] + b[1]));
+        printf("mesh holes: %zu pixels, mean weight over them %.4f; between the lips %.4f\n", holes,
+               holes ? in_holes / (double)holes : 0.0, w[(size_t)my * photo.width + mx]);
+        CHECK(holes > 20);
+        CHECK(holes && in_holes / (double)holes > 0.99);
+        CHECK(w[(size_t)my * photo.width + mx] == 1.0f);
+    }
+    free(filled), free(w);
+    hd_image_free(&warped), hd_image_free(&cover), hd_image_free(&photo);
+    hd_aligned_faces_free(faces, n);
+}
+
 int main(void)
 {
     /* the canonical mesh (for the face regions): from the build tree, the source tree's models/ */
@@ -655,5 +709,6 @@ int main(void)
     test_guard();
     test_eye_cap();
     test_forehead_region();
+    test_photo_weight_holes();
     return test_summary("test_relight_rule");
 }

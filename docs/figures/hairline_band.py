@@ -8,33 +8,37 @@ Usage: hairline_band.py OUT.jpg BEFORE1.png AFTER1.png [BEFORE2.png AFTER2.png .
 import sys
 from PIL import Image
 
-COLUMNS = (0, 1, 6, 7)  # the photo, presets 0, 5 and 6
 CELLS = 9
 
 
-def forehead_row(path):
+def sheet_band(path, columns, top, bottom):
+    """The bottom row's cells `columns` of the sheet at path, from `top` to `bottom` below the row's
+    top (shares of a cell's width), side by side."""
     sheet = Image.open(path).convert("RGB")
-    cell_w, top = sheet.size[0] / CELLS, sheet.size[1] // 2
-    width, height = int(cell_w) - 10, int(cell_w * 0.5)
-    row = Image.new("RGB", (width * len(COLUMNS), height))
-    for j, k in enumerate(COLUMNS):
+    cell_w, row_top = sheet.size[0] / CELLS, sheet.size[1] // 2
+    width = int(cell_w) - 10
+    y0, y1 = row_top + int(top * cell_w), row_top + int(bottom * cell_w)
+    row = Image.new("RGB", (width * len(columns), y1 - y0))
+    for j, k in enumerate(columns):
         x0 = int(k * cell_w)
-        row.paste(sheet.crop((x0, top, x0 + width, top + height)), (j * width, 0))
+        row.paste(sheet.crop((x0, y0, x0 + width, y1)), (j * width, 0))
     return row
 
 
-def main(argv):
-    if len(argv) < 3 or len(argv) % 2 == 0:
-        sys.exit(__doc__)
-    rows = [forehead_row(p) for p in argv[1:]]
-    width = max(r.size[0] for r in rows)
-    out = Image.new("RGB", (width, sum(r.size[1] for r in rows)), (255, 255, 255))
+def stack(out_path, paths, columns, top, bottom, doc):
+    """The bands of every sheet in paths (before, after, before, after ...), one above the other."""
+    if len(paths) < 2 or len(paths) % 2:
+        sys.exit(doc)
+    rows = [sheet_band(p, columns, top, bottom) for p in paths]
+    out = Image.new("RGB", (max(r.size[0] for r in rows), sum(r.size[1] for r in rows)), (255, 255, 255))
     y = 0
     for r in rows:
         out.paste(r, (0, y))
         y += r.size[1]
-    out.save(argv[0])
+    out.save(out_path, quality=90)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    stack(sys.argv[1], sys.argv[2:], (0, 1, 6, 7), 0.0, 0.5, __doc__)  # the photo, presets 0, 5, 6; the forehead

@@ -222,6 +222,7 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
 {
     hd_image warped = {0}, coverage = {0};
     hd_status st = hd_warp_back(f, &f->mask, NULL, &warped, &coverage);
+    if (st == HD_OK) st = hd_field_fill_holes(coverage.data, coverage.width, coverage.height);
     if (st == HD_OK) st = hd_photo_face_feather(f, photo, coverage.data, feather);
     hd_image_free(&warped);
     hd_image_free(&coverage);

@@ -48,6 +48,10 @@ hd_status hd_field_feather(const float *inside, int w, int h, float band, float 
  * (1 - smoothstep(d_p / band), d_p the chamfer distance from the region; the picture's edge is not
  * an edge here). */
 hd_status hd_field_feather_out(const float *inside, int w, int h, float band, float *weight);
+/* Fills the holes of a region in place: every pixel with inside[p] <= 0.5 that no path of such
+ * pixels (4-connected) joins to the picture's edge is set to 1 (the nostrils and the lips' line of
+ * a face mesh's coverage). Fails only for want of memory. */
+hd_status hd_field_fill_holes(float *inside, int w, int h);
 /* The smoothstep 3t^2 - 2t^3 of t clamped to [0, 1], the feathers' ramp. */
 float hd_field_smoothstep(float t);
 
@@ -65,7 +69,8 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
 hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float *weight);
 /* The weights with which the ratio rule applies face f's change to photo (apply.c: hd_apply_photo,
  * hd_relight_photo, hd_apply_face; weight photo-sized): hd_photo_face_feather of the coverage of
- * f's mask warped into the photo (hd_warp_back). photo is the photo as given, before any face is
+ * f's mask warped into the photo (hd_warp_back), its holes filled (hd_field_fill_holes: the change
+ * does not fade around the nostrils and along the lips, where the mesh has holes). photo is the photo as given, before any face is
  * changed. `hdnet serve` sends it to the page (its "weight" map). */
 hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, float *weight);
 

@@ -1,5 +1,5 @@
-/* fields.c: the smooth scalar fields of the relighting rule: filling holes from what is around them
- * (push-pull), Gaussian blurring, and feather weights that fall to 0 at a region's edge (inside
+/* fields.c: the smooth scalar fields of the relighting rule: filling unknown values from what is
+ * around them (push-pull), filling a region's holes, Gaussian blurring, and feather weights that fall to 0 at a region's edge (inside
  * it) or beyond it (outside). One plane
  * of floats each, w x h, row-major. */
 #include <math.h>
@@ -109,6 +109,37 @@ hd_status hd_field_blur(float *v, int w, int h, float sigma)
             v[(size_t)y * w + x] = acc;
         }
     free(k), free(tmp);
+    return HD_OK;
+}
+
+hd_status hd_field_fill_holes(float *inside, int w, int h)
+{
+    const size_t n = (size_t)w * h;
+    if (n == 0) return HD_OK;
+    unsigned char *reached = hd_calloc(n, 1);
+    size_t *queue = hd_malloc(n * sizeof *queue);
+    if (!reached || !queue) {
+        free(reached), free(queue);
+        return HD_ERR_NOMEM;
+    }
+    /* breadth-first from the outside pixels on the picture's edge, through outside pixels */
+    size_t head = 0, tail = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const size_t p = (size_t)y * w + x;
+            if ((x == 0 || y == 0 || x == w - 1 || y == h - 1) && inside[p] <= 0.5f) reached[p] = 1, queue[tail++] = p;
+        }
+    while (head < tail) {
+        const size_t p = queue[head++];
+        const int x = (int)(p % (size_t)w), y = (int)(p / (size_t)w);
+        const size_t next[4] = {x > 0 ? p - 1 : p, x + 1 < w ? p + 1 : p, y > 0 ? p - (size_t)w : p,
+                                y + 1 < h ? p + (size_t)w : p};
+        for (int k = 0; k < 4; k++)
+            if (!reached[next[k]] && inside[next[k]] <= 0.5f) reached[next[k]] = 1, queue[tail++] = next[k];
+    }
+    for (size_t p = 0; p < n; p++)
+        if (!reached[p] && inside[p] <= 0.5f) inside[p] = 1.0f;
+    free(reached), free(queue);
     return HD_OK;
 }
 
