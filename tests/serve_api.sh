@@ -79,8 +79,8 @@ call 201 up2.json -H 'Content-Type: image/jpeg' --data-binary @"$jpeg" "$base/ap
 id2=$(id_of up2.json)
 grep -q '"width":675,"height":675' up2.json || fail "JPEG upload: wrong size in $(head -c 200 up2.json)"
 
-# ---- maps: seven PNGs of the photo's size, named in the upload's JSON
-for m in photo normal shading mask weight skin eyes; do
+# ---- maps: six PNGs of the photo's size, named in the upload's JSON
+for m in photo normal shading mask weight skin; do
     grep -q "\"$m\":\"/api/photos/$id1/maps/$m.png\"" up1.json || fail "the upload's maps do not name $m.png"
     call 200 "$m.png" "$base/api/photos/$id1/maps/$m.png"
     [ "$(png_size "$m.png")" = "512 512" ] || fail "map $m is $(png_size "$m.png"), not 512 512"

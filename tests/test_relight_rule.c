@@ -508,64 +508,63 @@ static void test_guard(void)
     free_face(&d, &in, &mask);
 }
 
+/* The eyes follow the skin around them (no cap toward the face's mean): under a light from one
+ * side, log r at each eye's centre (the eyes are regions, filled from the skin) is within a little
+ * of the mean over the skin ring around that eye (0.3 .. 0.5 eye distances), and the lit eye's
+ * change is well above the shadowed one's, as their rings' are. A cap toward the face's mean
+ * ratio held both eyes within a factor 1.08 of it: a dark disc round the lit eye, a light one
+ * round the shadowed eye. */
+static void test_eyes_follow_skin(void)
+{
+    float src[HD_SH_COEFFS], tgt[HD_SH_COEFFS];
+    hd_light_from_direction(0, 0, 1.0f, 0.6f, src);
+    hd_light_from_direction(70, 0, 1.5f, 0.3f, tgt);
+    hd_decomposition d;
+    hd_image in, mask, lr = {0};
+    make_face(src, &d, &in, &mask);
+    hd_light_rgb t;
+    hd_light_rgb_from_grey(tgt, &t);
+    const hd_mesh *mesh = NULL;
+    CHECK(hd_mesh_canonical(&mesh) == HD_OK);
+    CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, &t, &lr) == HD_OK);
+    if (mesh && lr.data) {
+        const int *eyes[2] = {hd_contour_right_eye, hd_contour_left_eye};
+        float c[2][2] = {{0}};
+        for (int e = 0; e < 2; e++) {
+            int n = 0;
+            for (; eyes[e][n] >= 0; n++)
+                c[e][0] += mesh->uv[2 * eyes[e][n]] * SIDE, c[e][1] += mesh->uv[2 * eyes[e][n] + 1] * SIDE;
+            c[e][0] /= n, c[e][1] /= n;
+        }
+        const float dist = hypotf(c[1][0] - c[0][0], c[1][1] - c[0][1]);
+        float at[2], ring[2];
+        for (int e = 0; e < 2; e++) {
+            at[e] = lr.data[(size_t)c[e][1] * SIDE + (size_t)c[e][0]];
+            double sum = 0;
+            int n = 0;
+            for (int y = 0; y < SIDE; y++)
+                for (int x = 0; x < SIDE; x++) {
+                    const float r = hypotf(x + 0.5f - c[e][0], y + 0.5f - c[e][1]) / dist;
+                    if (r >= 0.3f && r <= 0.5f && mask.data[(size_t)y * SIDE + x] > 0.5f)
+                        sum += lr.data[(size_t)y * SIDE + x], n++;
+                }
+            ring[e] = n ? (float)(sum / n) : 0.0f;
+        }
+        printf("eyes' log r %.3f / %.3f, their skin rings' %.3f / %.3f\n", at[0], at[1], ring[0], ring[1]);
+        CHECK(fabsf(ring[0] - ring[1]) > 0.3f); /* the light from one side does reach them differently */
+        CHECK(fabsf(at[0] - ring[0]) < 0.1f && fabsf(at[1] - ring[1]) < 0.1f);
+        CHECK(fabsf(at[0] - at[1]) > 0.2f);
+    }
+    hd_image_free(&lr);
+    free_face(&d, &in, &mask);
+}
+
 /* The face's region in a photo grows from the mesh's upper edge over the forehead's skin to the
  * hairline (forehead.c), and nowhere else: not into hair, the background, the neck below the
  * mesh, nor past its reach. A constructed face: eyes at (80, 100) and (120, 100) (eye distance 40),
  * forehead up (landmark 10 above, 152 below), skin in a disc of radius 70 with hair above y = 45
  * (or, bald, a disc of radius 90 and no hair; or a fringe of hair across the mesh's top, with skin
  * above it), the mesh's coverage a disc of radius 50 about (100, 110), so its top is at y = 60. */
-/* The eyes' cap: the discs' weights (1 at both eyes' centres, 0 on the nose and the cheeks and
- * the texture's corners), and the cap on a field: within HD_EYE_CAP of the skin's mean where the
- * weight is 1, untouched bit for bit where it is 0, and a field already within the cap unchanged. */
-static void test_eye_cap(void)
-{
-    hd_image eyes;
-    CHECK(hd_face_eye_discs_uv(SIDE, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &eyes) == HD_OK);
-    const size_t P = (size_t)SIDE * SIDE;
-    long ones[2] = {0, 0}, partial = 0;
-    int ok = 1;
-    for (int y = 0; y < SIDE; y++)
-        for (int x = 0; x < SIDE; x++) {
-            float w = eyes.data[(size_t)y * SIDE + x];
-            ok &= w >= 0.0f && w <= 1.0f;
-            if (w == 1.0f) ones[x >= SIDE / 2]++;
-            else if (w > 0.0f) partial++;
-        }
-    CHECK(ok);
-    CHECK(ones[0] > 10 && ones[1] > 10); /* one disc on each side */
-    CHECK(partial > ones[0] + ones[1]);   /* a soft edge around them */
-    CHECK(eyes.data[(size_t)(SIDE / 2) * SIDE + SIDE / 2] == 0.0f); /* the nose */
-    CHECK(eyes.data[0] == 0.0f && eyes.data[P - 1] == 0.0f);
-    CHECK(eyes.data[(size_t)(SIDE * 3 / 4) * SIDE + SIDE / 5] == 0.0f); /* a cheek */
-    hd_image bad;
-    CHECK(hd_face_eye_discs_uv(SIDE, 0.3f, 0.2f, &bad) == HD_ERR_ARG && bad.data == NULL);
-
-    float *lr = malloc(P * sizeof(float)), *known = malloc(P * sizeof(float));
-    const float levels[3] = {0.5f, -0.5f, 0.05f}, cap = logf(HD_EYE_CAP);
-    for (int k = 0; k < 3; k++) {
-        /* the skin (away from the eyes) at 0.1 and 0.3 in turn: its mean is 0.2 */
-        for (size_t p = 0; p < P; p++) {
-            known[p] = eyes.data[p] == 0.0f;
-            lr[p] = eyes.data[p] > 0.0f ? 0.2f + levels[k] : (p % 2 ? 0.1f : 0.3f);
-        }
-        hd_ratio_cap_eyes(lr, known, eyes.data, SIDE);
-        float want = 0.2f + (levels[k] > cap ? cap : levels[k] < -cap ? -cap : levels[k]);
-        int full = 1, kept = 1, between = 1;
-        for (size_t p = 0; p < P; p++) {
-            float w = eyes.data[p];
-            if (w == 1.0f) full &= fabsf(lr[p] - want) < 1e-5f;
-            else if (w == 0.0f) kept &= lr[p] == (p % 2 ? 0.1f : 0.3f);
-            else between &= (lr[p] - want) * (lr[p] - (0.2f + levels[k])) <= 1e-9f;
-        }
-        CHECK(full);
-        CHECK(kept);
-        CHECK(between);
-    }
-    free(lr);
-    free(known);
-    hd_image_free(&eyes);
-}
-
 static void test_forehead_region(void)
 {
     static const int right_eye[] = {33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246};
@@ -707,7 +706,7 @@ int main(void)
     test_source_light();
     test_fit_weight();
     test_guard();
-    test_eye_cap();
+    test_eyes_follow_skin();
     test_forehead_region();
     test_photo_weight_holes();
     return test_summary("test_relight_rule");

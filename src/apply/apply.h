@@ -14,26 +14,12 @@
  * polygon grown by HD_REGION_GROW of the texture side. */
 #define HD_REGION_GROW 0.012f
 hd_status hd_face_regions_uv(int size, hd_image *regions);
-/* The eyes' discs in the same layout: weight (size x size, 1 plane) is 1 within inner x the eye
- * distance of each eye's centre (the mean of its contour), falling smoothly to 0 at outer x the eye
- * distance. */
-hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *weight);
 /* The weight of each texel in the face's own light fit (hd_face_light), size x size, 1 plane: 1
  * down to the nose tip's row (landmark 1), falling smoothly to lower at the mouth corners' row
  * (landmarks 61 and 291) and lower below. An expression moves the mouth, the cheeks below the
  * nose and the jaw, the light does not: the fit leans on the face above the nose. */
 #define HD_FIT_LOWER_FACE 0.25f
 hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight);
-/* The eyes' cap: inside the eye discs (radii HD_EYE_CAP_INNER .. HD_EYE_CAP_OUTER eye distances) the
- * relighting ratio stays within a factor HD_EYE_CAP of the face's mean ratio (the geometric mean
- * over the skin), so that no light makes the eyes glow or go dark against the face. */
-#define HD_EYE_CAP 1.08f
-#define HD_EYE_CAP_INNER 0.2f
-#define HD_EYE_CAP_OUTER 0.32f
-/* Caps one plane of log r (size x size) in place: log r + w (clamp(log r, mu -+ log HD_EYE_CAP) -
- * log r), w the eye discs' weight (hd_face_eye_discs_uv), mu the mean of log r where known > 0. */
-void hd_ratio_cap_eyes(float *log_ratio, const float *known, const float *eyes, int size);
-
 /* Fills v (w x h, one plane) where known[p] <= 0.5 from the known values around (push-pull over
  * a pyramid: an unknown texel gets a smooth blend of the nearest known ones). Fails only for want
  * of memory; with nothing known, v is set to 0. */

@@ -30,38 +30,6 @@ hd_status hd_face_regions_uv(int size, hd_image *regions)
     return hd_mesh_contours_uv(REGIONS, NREGIONS, HD_REGION_GROW, size, regions);
 }
 
-hd_status hd_face_eye_discs_uv(int size, float inner, float outer, hd_image *weight)
-{
-    memset(weight, 0, sizeof *weight);
-    if (size < 1 || size > HD_IMAGE_MAX_SIDE || !(inner >= 0.0f) || !(outer > inner))
-        return hd_fail(HD_ERR_ARG, "eye discs: size %d or radii %g, %g out of range", size, inner, outer);
-    const hd_mesh *mesh;
-    hd_status st = hd_mesh_canonical(&mesh);
-    if (st != HD_OK) return st;
-    float c[2][2];
-    for (int e = 0; e < 2 && st == HD_OK; e++) {
-        for (int n = 0; EYES[e][n] >= 0; n++)
-            if (EYES[e][n] >= mesh->nv)
-                st = hd_fail(HD_ERR_FORMAT, "eye discs: the mesh has %d vertices, landmark %d needed", mesh->nv, EYES[e][n]);
-        if (st != HD_OK) break;
-        contour_centre(EYES[e], mesh->uv, 2, c[e]);
-        c[e][0] *= size, c[e][1] *= size; /* texel units */
-    }
-    if (st == HD_OK) st = hd_image_alloc(weight, size, size, 1);
-    if (st != HD_OK) return st;
-    const float dist = hypotf(c[1][0] - c[0][0], c[1][1] - c[0][1]), r0 = inner * dist, r1 = outer * dist;
-    for (int y = 0; y < size; y++)
-        for (int x = 0; x < size; x++) {
-            float w = 0;
-            for (int e = 0; e < 2; e++) {
-                float d = hypotf(x + 0.5f - c[e][0], y + 0.5f - c[e][1]);
-                w = fmaxf(w, 1.0f - hd_field_smoothstep((d - r0) / (r1 - r0)));
-            }
-            weight->data[(size_t)y * size + x] = w;
-        }
-    return HD_OK;
-}
-
 hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight)
 {
     enum { NOSE_TIP = 1, MOUTH_RIGHT = 61, MOUTH_LEFT = 291 };

@@ -9,9 +9,9 @@
  * light does not change, is one factor for all three channels under a grey light, and is smooth
  * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
  * the inside of the mouth, brows: regions.c) and outside the face's mask, log r is filled from the
- * skin around; the field is then blurred a little, held within HD_EYE_CAP of the face's mean
- * ratio around the eyes (hd_ratio_cap_eyes), feathered to nothing at the face's edge and applied
- * with one brightness factor. */
+ * skin around, so that the eyes, the mouth and the brows change as the skin around them does; the
+ * field is then blurred a little, feathered to nothing at the face's edge and applied with one
+ * brightness factor. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -95,10 +95,9 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
                 if (!isfinite(target->sh[c][k]))
                     return hd_fail(HD_ERR_NUMERIC, "relight: light coefficient %d of channel %d is not finite", k, c);
     const size_t P = (size_t)size * size;
-    hd_image n = {0}, skin = {0}, src = {0}, eyes = {0};
+    hd_image n = {0}, skin = {0}, src = {0};
     hd_status st = normals_at(d, size, &n);
     if (st == HD_OK) st = skin_at(mask, size, &skin);
-    if (st == HD_OK) st = hd_face_eye_discs_uv(size, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &eyes);
     if (st == HD_OK) st = hd_image_alloc(&src, size, size, 1);
     if (st == HD_OK) st = hd_image_alloc(log_ratio, size, size, channels);
     const float *known = skin.data; /* 1 where log r is the model's, 0 where it is filled */
@@ -121,30 +120,13 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
             }
             st = hd_field_fill(lr, known, size, size);
             if (st == HD_OK) st = hd_field_blur(lr, size, size, RATIO_BLUR * size);
-            if (st == HD_OK) hd_ratio_cap_eyes(lr, known, eyes.data, size);
         }
     }
     hd_image_free(&n);
     hd_image_free(&skin);
     hd_image_free(&src);
-    hd_image_free(&eyes);
     if (st != HD_OK) hd_image_free(log_ratio);
     return st;
-}
-
-void hd_ratio_cap_eyes(float *log_ratio, const float *known, const float *eyes, int size)
-{
-    const size_t P = (size_t)size * size;
-    double mean = 0, count = 0;
-    for (size_t p = 0; p < P; p++)
-        if (known[p] > 0) mean += log_ratio[p], count++;
-    if (count == 0) return;
-    const float mu = (float)(mean / count), cap = logf(HD_EYE_CAP), lo = mu - cap, hi = mu + cap;
-    for (size_t p = 0; p < P; p++) {
-        if (!(eyes[p] > 0)) continue;
-        float v = log_ratio[p], c = v < lo ? lo : v > hi ? hi : v;
-        log_ratio[p] = v + eyes[p] * (c - v);
-    }
 }
 
 /* The w-weighted mean luminance of the relit pixels (idx) for brightness offset t, unclamped. */

@@ -173,8 +173,8 @@ try {
     }
     return { diff: sum / n, change: moved / n, n: n / 3 };
   });
-  // within 7 % of the change: the preview takes the server's weight, skin and eyes' cap maps, fills log r
-  // beyond the skin by push-pull, blurs it and caps the eyes as the render does (docs/serve.md); on this
+  // within 7 % of the change: the preview takes the server's weight and skin maps, fills log r
+  // beyond the skin by push-pull and blurs it as the render does (docs/serve.md); on this
   // photo it differs by 4.3 % of the change (1.57 levels of 36.2; 26 % before it took the server's maps),
   // most of what is left in the open mouth, which the render fills in the texture, where it is a sliver
   check(near.n > 500 && near.diff < 0.07 * near.change, 'the preview is close to the server\'s render',

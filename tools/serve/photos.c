@@ -6,9 +6,8 @@
  * faces and falls to 0 over a few pixels at their edge, and the weight the render applies each
  * face's change with (hd_photo_face_weight: the feather inside the mesh's edge, the forehead grown
  * to the hairline with its outward fade), the skin where the render's log r is the model's own
- * (the mesh outside the eyes, mouth and brows of hd_face_regions_uv) and the eyes' cap weight
- * (hd_face_eye_discs_uv), each warped as the render warps its field: the page's preview takes
- * them. The store keeps at most N photos and evicts the least
+ * (the mesh outside the eyes, mouth and brows of hd_face_regions_uv), each warped as the render
+ * warps its field: the page's preview takes them. The store keeps at most N photos and evicts the least
  * recently used; a photo in use by a request is freed only when that request lets it go. */
 #include <math.h>
 #include <stdlib.h>
@@ -17,7 +16,7 @@
 #include "hdnet_tool.h"
 #include "serve.h"
 
-const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight", "skin", "eyes"};
+const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight", "skin"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -66,46 +65,41 @@ static hd_status feather(hd_image *mask, int r)
 
 /* The photo-sized maps the maps are built in (before encoding). */
 typedef struct face_maps {
-    hd_image normal, shading, mask, skin, eyes;
+    hd_image normal, shading, mask, skin;
 } face_maps;
 
 /* Adds face f's normals and shading (decomposition d), its skin (the mesh outside the regions the
- * render fills: hd_face_regions_uv) and its eyes' cap (hd_face_eye_discs_uv) to the photo-sized
- * maps where its warp covers; a later face overwrites an earlier one, as hd_relight_photo blends
+ * render fills: hd_face_regions_uv) to the photo-sized maps where its warp covers; a later face overwrites an earlier one, as hd_relight_photo blends
  * them in order. */
 static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, face_maps *fm)
 {
-    /* two warps: the normals, and the shading, regions and eyes as the planes of one texture
+    /* two warps: the normals, and the shading and regions as the planes of one texture
      * (hd_warp_back takes at most 4 channels) */
-    hd_image n_tex = {0}, r_tex = {0}, e_tex = {0}, s_tex = {0}, tex = {0}, n_ph = {0}, ph = {0}, cover = {0},
-             cover2 = {0};
+    hd_image n_tex = {0}, r_tex = {0}, s_tex = {0}, tex = {0}, n_ph = {0}, ph = {0}, cover = {0}, cover2 = {0};
     hd_status st = hd_normal_resize(&d->normal, f->size, f->size, &n_tex);
     if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
     if (st == HD_OK) st = hd_face_regions_uv(f->size, &r_tex);
-    if (st == HD_OK) st = hd_face_eye_discs_uv(f->size, HD_EYE_CAP_INNER, HD_EYE_CAP_OUTER, &e_tex);
-    if (st == HD_OK) st = hd_image_alloc(&tex, f->size, f->size, 3);
+    if (st == HD_OK) st = hd_image_alloc(&tex, f->size, f->size, 2);
     if (st == HD_OK) {
         const size_t T = (size_t)f->size * f->size;
         memcpy(tex.data, s_tex.data, T * sizeof(float));
         memcpy(tex.data + T, r_tex.data, T * sizeof(float));
-        memcpy(tex.data + 2 * T, e_tex.data, T * sizeof(float));
         st = hd_warp_back(f, &n_tex, &f->mask, &n_ph, &cover);
     }
     if (st == HD_OK) st = hd_warp_back(f, &tex, &f->mask, &ph, &cover2);
     if (st == HD_OK) {
         hd_normal_renormalise(&n_ph);
         const size_t HW = (size_t)fm->normal.width * fm->normal.height;
-        const float *shading = ph.data, *regions = ph.data + HW, *eyes = ph.data + 2 * HW;
+        const float *shading = ph.data, *regions = ph.data + HW;
         for (size_t p = 0; p < HW; p++) {
             if (cover.data[p] <= 0.0f) continue;
             for (int c = 0; c < 3; c++) fm->normal.data[c * HW + p] = n_ph.data[c * HW + p];
             fm->shading.data[p] = shading[p];
             fm->mask.data[p] = 1.0f;
             fm->skin.data[p] = regions[p] <= 0.5f ? 1.0f : 0.0f;
-            fm->eyes.data[p] = eyes[p];
         }
     }
-    hd_image *all[] = {&n_tex, &r_tex, &e_tex, &s_tex, &tex, &n_ph, &ph, &cover, &cover2};
+    hd_image *all[] = {&n_tex, &r_tex, &s_tex, &tex, &n_ph, &ph, &cover, &cover2};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }
@@ -122,7 +116,7 @@ static hd_status add_face_weight(const hd_aligned_face *f, const hd_image *photo
 /* The maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces), shading as
  * s / 2, the feathered mask, the render's weight (a weight above 0 but under half a level is sent
  * as one level, so the map is 0 exactly where the render leaves the photo as it is), the skin (1
- * where the render's log r is the model's own, 0 where it is filled) and the eyes' cap weight. */
+ * where the render's log r is the model's own, 0 where it is filled). */
 static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
@@ -132,7 +126,6 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = hd_image_alloc(&fm.shading, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.mask, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.skin, W, H, 1);
-    if (st == HD_OK) st = hd_image_alloc(&fm.eyes, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&weight, W, H, 1);
     float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
     if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
@@ -156,9 +149,8 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
         if (weight.data[q] > 0.0f && weight.data[q] < 0.5f / 255.0f) weight.data[q] = 1.0f / 255.0f;
     if (st == HD_OK) st = serve_picture_encode_png(&weight, &p->maps[SERVE_MAP_WEIGHT]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.skin, &p->maps[SERVE_MAP_SKIN]);
-    if (st == HD_OK) st = serve_picture_encode_png(&fm.eyes, &p->maps[SERVE_MAP_EYES]);
     free(scratch);
-    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &fm.eyes, &weight, &encoded};
+    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &weight, &encoded};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }

@@ -60,8 +60,8 @@ typedef struct serve_face {
 
 /* The maps the page relights with, all at the photo's size (docs/serve.md, "The page"). */
 enum { SERVE_MAP_PHOTO = 0, SERVE_MAP_NORMAL, SERVE_MAP_SHADING, SERVE_MAP_MASK, SERVE_MAP_WEIGHT, SERVE_MAP_SKIN,
-       SERVE_MAP_EYES, SERVE_MAPS };
-/* "photo", "normal", "shading", "mask", "weight", "skin", "eyes" */
+       SERVE_MAPS };
+/* "photo", "normal", "shading", "mask", "weight", "skin" */
 extern const char *const serve_map_names[SERVE_MAPS];
 
 typedef struct serve_photo {

@@ -350,7 +350,7 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, serve_server *s, co
             if (strncmp(name, serve_map_names[m], n) == 0 && strcmp(name + n, ".png") == 0) break;
         }
         ok = m < SERVE_MAPS ? send_bytes(c, MHD_HTTP_OK, "image/png", p->maps[m].data, p->maps[m].size, NULL)
-                         : send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' (photo, normal, shading, mask, weight, skin, eyes .png)", name);
+                         : send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' (photo, normal, shading, mask, weight, skin .png)", name);
     } else if (strcmp(rest, "/light.txt") == 0 && get) {
         const char *fs = query(c, "face");
         char *end = NULL;

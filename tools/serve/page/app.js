@@ -1,13 +1,13 @@
 /* app.js: the `hdnet serve` page (docs/serve.md). A photo is uploaded once; the server finds and
  * decomposes its faces and sends maps at the photo's size (the photo, the predicted normals, and
- * the render's weight, skin and eyes' cap) and each face's estimated light and landmarks. While
+ * the render's weight and skin) and each face's estimated light and landmarks. While
  * the light is dragged the page relights on its own, per pixel, by the rule of docs/usage.md
  * (relightInPage):
  *     out = I * exp(w * (log r + t)),   r = (max(s(N, l), 0) + g) / (max(s(N, l_face), 0) + g)
  * with s the SH shading of docs/conventions.md, g the guard, w the server's weight (the feather
  * inside the mesh's edge, the forehead grown to the hairline with its outward fade), the eyes,
  * mouth and brows and the pixels beyond the mesh taking log r filled from the skin's (push-pull,
- * as the render), blurred and capped at the eyes as the render's, and t the offset that keeps the
+ * as the render) and blurred as the render's, and t the offset that keeps the
  * face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
  * Nothing is loaded from anywhere but the server. */
 'use strict';
@@ -246,11 +246,10 @@
     return ctx.getImageData(0, 0, c.width, c.height);
   }
 
-  // The rule's constants (src/apply/rule.c, apply.h): the guard, the eyes' cap, the blur of log r (a
-  // share of the texture's side) and the eye distance in the texture (models/canonical_face_model.obj's
-  // UV layout), which turns it into photo pixels. The weights, the skin and the eyes' discs are the
-  // server's maps.
-  const RATIO_GUARD = 0.01, EYE_CAP = 1.08, RATIO_BLUR = 0.012, EYE_DISTANCE_UV = 0.3076;
+  // The rule's constants (src/apply/rule.c, apply.h): the guard, the blur of log r (a share of the
+  // texture's side) and the eye distance in the texture (models/canonical_face_model.obj's UV
+  // layout), which turns it into photo pixels. The weights and the skin are the server's maps.
+  const RATIO_GUARD = 0.01, RATIO_BLUR = 0.012, EYE_DISTANCE_UV = 0.3076;
   const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
   const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
 
@@ -357,12 +356,12 @@
   }
 
   // Keeps, for each pixel the render may change (the server's weight map above 0), what the rule
-  // needs: I, the weight w, its face, the eyes' cap weight, and on the faces' skin (the server's skin
+  // needs: I, the weight w, its face, and on the faces' skin (the server's skin
   // map: the meshes outside the eyes, mouth and brows) N and the source shading s(N, l_face); the
   // rest (those regions, the forehead beyond the mesh up to the hairline, the fade into the hair)
   // takes log r filled from the skin's over a window around the faces. Each pixel belongs to the
   // last face whose landmarks' extent, grown by an eye distance, holds it.
-  function prepareMaps(photo, normal, weight, skin, eyes, faces) {
+  function prepareMaps(photo, normal, weight, skin, faces) {
     const W = photo.width, H = photo.height, n = W * H;
     const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
@@ -385,7 +384,7 @@
     const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
-      face: new Int16Array(count), skin: new Uint8Array(count), eye: new Float32Array(count), cell: new Int32Array(count),
+      face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count),
       faces: faces.length, fill: count ? pyramid(ww, wh) : null, known: new Float32Array(count ? ww * wh : 0),
       blurTmp: new Float32Array(count ? ww * wh : 0),
       sigma: RATIO_BLUR / EYE_DISTANCE_UV * Math.min(...faces.map(eyeDistance)) };
@@ -400,7 +399,6 @@
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
       m.w[j] = weight.data[4 * p] / 255;
       m.face[j] = k;
-      m.eye[j] = eyes.data[4 * p] / 255;
       if (skin.data[4 * p] > 0) {
         let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
         const len = Math.hypot(x, y, z) || 1;
@@ -422,17 +420,16 @@
 
   // The rule of docs/usage.md per pixel: out = I * exp(w * (log r + t)),
   // r = (max(s(N, l), 0) + g) / (s(N, l_face) + g) on the skin, filled from the skin's over the
-  // regions and beyond the meshes (push-pull, as the render), held within the eyes' cap of the
-  // face's mean, t the one offset that keeps the w-weighted mean luminance (--keep-brightness), the
-  // factor lowered for a pixel where a channel would pass 1.
+  // regions and beyond the meshes (push-pull, as the render), t the one offset that keeps the
+  // w-weighted mean luminance (--keep-brightness), the factor lowered for a pixel where a channel
+  // would pass 1.
   function relightInPage() {
     const m = state.maps, l = currentLight(), d = m.out.data;
-    const L = new Float32Array(m.n), mean = new Float64Array(m.faces), num = new Float64Array(m.faces);
+    const L = new Float32Array(m.n);
     for (let j = 0; j < m.n; j++) {
       if (!m.skin[j]) continue;
       const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), g = m.guard[j];
       L[j] = t === m.src[j] ? 0 : Math.log((t + g) / (m.src[j] + g));
-      mean[m.face[j]] += L[j], num[m.face[j]]++;
     }
     if (m.fill) { // the regions and beyond the meshes: log r filled from the skin's (hd_field_fill)
       const f = m.fill[0];
@@ -443,13 +440,6 @@
       blur(f.v, f.w, f.h, m.sigma, m.blurTmp);
       for (let j = 0; j < m.n; j++) L[j] = f.v[m.cell[j]];
     }
-    const cap = Math.log(EYE_CAP); // hd_ratio_cap_eyes: within a factor EYE_CAP of the face's mean ratio
-    for (let k = 0; k < m.faces; k++) mean[k] = num[k] > 0 ? mean[k] / num[k] : 0;
-    for (let j = 0; j < m.n; j++)
-      if (m.eye[j] > 0) {
-        const mu = mean[m.face[j]], c = Math.min(mu + cap, Math.max(mu - cap, L[j]));
-        L[j] += m.eye[j] * (c - L[j]);
-      }
     const lum = new Float32Array(m.n);
     let goal = 0;
     for (let j = 0; j < m.n; j++) {
@@ -539,10 +529,10 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, weight, skin, eyes] = await Promise.all(['photo', 'normal', 'weight', 'skin', 'eyes']
+      const [photo, normal, weight, skin] = await Promise.all(['photo', 'normal', 'weight', 'skin']
         .map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, weight, skin, eyes, j.faces);
+      state.maps = prepareMaps(photo, normal, weight, skin, j.faces);
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
