@@ -175,7 +175,7 @@ try {
   });
   // within 7 % of the change: the preview takes the server's weight and skin maps, fills log r
   // beyond the skin by push-pull and blurs it as the render does (docs/serve.md); on this
-  // photo it differs by 4.3 % of the change (1.57 levels of 36.2; 26 % before it took the server's maps),
+  // photo it differs by 4.6 % of the change (1.79 levels of 39.1; 26 % before it took the server's maps),
   // most of what is left in the open mouth, which the render fills in the texture, where it is a sliver
   check(near.n > 500 && near.diff < 0.07 * near.change, 'the preview is close to the server\'s render',
     `mean difference ${near.diff.toFixed(2)} levels over ${near.n} pixels, where the render changes them by ` +
