@@ -56,8 +56,9 @@ hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo,
 /* The weights with which the ratio rule applies face f's change to photo (apply.c: hd_apply_photo,
  * hd_relight_photo, hd_apply_face; weight photo-sized): hd_photo_face_feather of the coverage of
  * f's mask warped into the photo (hd_warp_back), its holes filled (hd_field_fill_holes: the change
- * does not fade around the nostrils and along the lips, where the mesh has holes). photo is the photo as given, before any face is
- * changed. `hdnet serve` sends it to the page (its "weight" map). */
+ * does not fade around the nostrils and along the lips, where the mesh has holes). photo is the
+ * photo as given, before any face is changed. `hdnet serve` sends it to the page (its "weight"
+ * map). */
 hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, float *weight);
 
 /* The log of the relighting ratio (s(N, l_target) + g) / (s(N, l_source) + g) (rule.c) at size x

@@ -1,7 +1,7 @@
 /* fields.c: the smooth scalar fields of the relighting rule: filling unknown values from what is
- * around them (push-pull), filling a region's holes, Gaussian blurring, and feather weights that fall to 0 at a region's edge (inside
- * it) or beyond it (outside). One plane
- * of floats each, w x h, row-major. */
+ * around them (push-pull), filling a region's holes, Gaussian blurring, and feather weights that
+ * fall to 0 at a region's edge (inside it) or beyond it (outside). One plane of floats each, w x h,
+ * row-major. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
