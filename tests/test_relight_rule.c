@@ -649,9 +649,9 @@ static void test_forehead_region(void)
     }
 }
 
-/* A real face (tests/data/faces-london/001/smiling.jpg): the face mesh's coverage has holes (the nostrils,
- * the line between the lips), and the weight the change applies with is whole over them rather
- * than fading to 0 around each. */
+/* A real face (tests/data/faces-london/001/smiling.jpg): the face mesh's coverage has holes (the
+ * nostrils, the line between the lips), and the weight the change applies with is whole over them
+ * rather than fading to 0 around each. */
 static void test_photo_weight_holes(void)
 {
     const char *td = getenv("HDNET_TESTDATA");

@@ -68,9 +68,9 @@ typedef struct face_maps {
     hd_image normal, shading, mask, skin;
 } face_maps;
 
-/* Adds face f's normals and shading (decomposition d), its skin (the mesh outside the regions the
- * render fills: hd_face_regions_uv) to the photo-sized maps where its warp covers; a later face overwrites an earlier one, as hd_relight_photo blends
- * them in order. */
+/* Adds face f's normals and shading (decomposition d) and its skin (the mesh outside the regions
+ * the render fills: hd_face_regions_uv) to the photo-sized maps where its warp covers; a later
+ * face overwrites an earlier one, as hd_relight_photo blends them in order. */
 static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition *d, face_maps *fm)
 {
     /* two warps: the normals, and the shading and regions as the planes of one texture
