@@ -1289,6 +1289,106 @@ static void test_light_pair(void)
     hd_trainer_free(&t);
 }
 
+/* ---- L_fpair: f is the light hd_face_light fits to the network's own S on N (the relighting
+ * rule's source light), the value is L_lpair's on those lights, the gradient wrt S and N agrees
+ * with central differences on the activations (the lobe held) and through every sub-net, an
+ * unrelated pair gets none, a pair of one image twice has no loss, and the term is off until
+ * hd_losses_fit_pair_on. */
+
+/* One directional derivative of L_fpair wrt the activations x (S or N of every image): 0 if the
+ * central difference and the analytic gradient dx agree. */
+static int fit_pair_direction(hd_trainer *t, float *x, const float *dx, size_t n, float eps, uint64_t seed)
+{
+    float *keep = malloc(n * sizeof(float)), *dir = malloc(n * sizeof(float));
+    hd_rng g;
+    hd_rng_seed(&g, 31, seed);
+    double gd = 0;
+    for (size_t i = 0; i < n; i++) {
+        keep[i] = x[i];
+        dir[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        gd += (double)dx[i] * dir[i];
+    }
+    double v[2];
+    for (int k = 0; k < 2; k++) {
+        for (size_t i = 0; i < n; i++) x[i] = keep[i] + (k ? -eps : eps) * dir[i];
+        CHECK(hd_losses_prepare(&t->losses, &t->batch, HD_LIGHT_FROM_COARSE) == HD_OK);
+        v[k] = hd_loss_fit_pair(&t->losses, 0.0f);
+    }
+    memcpy(x, keep, n * sizeof(float));
+    free(keep);
+    free(dir);
+    double fd = (v[0] - v[1]) / (2 * eps);
+    int ok = fabs(fd - gd) <= 0.02 * fmax(fabs(fd), fabs(gd)) + 1e-7;
+    if (!ok) fprintf(stderr, "fit_pair: finite difference %.7g, analytic %.7g\n", fd, gd);
+    return ok;
+}
+
+static void test_fit_pair(void)
+{
+    enum { S = 32, B = 6 };
+    const size_t HW = (size_t)S * S;
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, S, 3)) return;
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_FIT_PAIR] = 1.0f;
+    t.batch.pair_light[0] = HD_PAIR_LIGHT_SAME;
+    t.batch.pair_light[1] = HD_PAIR_LIGHT_MIRROR;
+    t.batch.pair_light[2] = HD_PAIR_LIGHT_NONE;
+    hd_step_result r;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_FIT_PAIR] == 0.0); /* off */
+    CHECK(hd_losses_fit_pair_on(&t.losses) == HD_OK);
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    /* f of every related image is the rule's source light of the network's maps */
+    float f[4][HD_SH_COEFFS];
+    for (int b = 0; b < 4; b++) {
+        hd_decomposition d = {0};
+        d.shading = (hd_image){S, S, 1, t.net.shading + b * HW};
+        d.normal = (hd_image){S, S, 3, t.net.normal + b * 3 * HW};
+        hd_image mask = {S, S, 1, t.batch.mask + b * HW};
+        CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, f[b]) == HD_OK);
+        for (int k = 0; k < HD_SH_COEFFS; k++)
+            CHECK_NEAR(t.losses.fit_light[b * HD_SH_COEFFS + k], f[b][k], 1e-5 * (1 + fabs(f[b][k])));
+    }
+    double want = 0;
+    for (int p = 0; p < 2; p++) {
+        float ri[HD_SH_COEFFS];
+        memcpy(ri, f[2 * p], sizeof ri);
+        if (p == 1) ri[3] = -ri[3], ri[4] = -ri[4], ri[7] = -ri[7];
+        double s = 0;
+        for (int k = 0; k < HD_SH_COEFFS; k++) s += fabs(f[2 * p + 1][k] - ri[k]);
+        want += t.batch.weight[2 * p] * s / HD_SH_COEFFS;
+    }
+    CHECK(want > 1e-4);
+    CHECK_NEAR(r.terms[HD_LOSS_FIT_PAIR], want / 3, 1e-6);
+    CHECK_NEAR(r.total, r.terms[HD_LOSS_FIT_PAIR], 1e-7);
+    /* the gradient wrt S and N against central differences, the lobe held */
+    CHECK(hd_losses_prepare(&t.losses, &t.batch, HD_LIGHT_FROM_COARSE) == HD_OK);
+    memset(t.net.d_shading, 0, B * HW * sizeof(float));
+    memset(t.net.d_normal, 0, B * 3 * HW * sizeof(float));
+    hd_loss_fit_pair(&t.losses, 1.0f);
+    t.losses.hold_light_hat = 1;
+    for (uint64_t k = 0; k < 2; k++) {
+        if (!fit_pair_direction(&t, t.net.shading, t.net.d_shading, 4 * HW, 1e-2f, k)) test_failures++;
+        if (!fit_pair_direction(&t, t.net.normal, t.net.d_normal, 4 * 3 * HW, 1e-3f, 10 + k)) test_failures++;
+    }
+    t.losses.hold_light_hat = 0;
+    double none = 0;
+    for (size_t i = 4 * HW; i < B * HW; i++) none += fabsf(t.net.d_shading[i]);
+    for (size_t i = 4 * 3 * HW; i < B * 3 * HW; i++) none += fabsf(t.net.d_normal[i]);
+    CHECK(none == 0.0); /* pair 2 is unrelated */
+    /* through the network, sub-net by sub-net */
+    check_gradients(&t, "fit_pair", 0, 1, 1e-3f, 0);
+    /* a same-light pair of one image twice: one light, no loss */
+    memcpy(t.batch.image + 3 * HW, t.batch.image, 3 * HW * sizeof(float));
+    memcpy(t.batch.mask + HW, t.batch.mask, HW * sizeof(float));
+    memcpy(t.batch.coarse_normal + 3 * HW, t.batch.coarse_normal, 3 * HW * sizeof(float));
+    t.batch.pair_light[1] = HD_PAIR_LIGHT_NONE;
+    CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+    CHECK(r.terms[HD_LOSS_FIT_PAIR] < 1e-7);
+    hd_trainer_free(&t);
+}
+
 /* ---- --light-target image: on a face of even albedo a under the light l0 over the coarse
  * normals, l_hat is the least-squares light of the luminance a s(n, l0), scaled so that the mean
  * of its shading over the mask is c: the same light whatever a is (0.2 .. 0.5 here) */
@@ -1374,8 +1474,8 @@ static void test_loss_plot(void)
         CHECK(dark_in(&img, 0, 78, 60, 418) > 100);   /* the decades' labels left of the y axis */
         CHECK(dark_in(&img, 64, 442, 900, 458) > 100); /* the iterations' labels under the x axis */
         CHECK(dark_in(&img, 0, 464, 400, 478) > 100);  /* the axis titles */
-        CHECK(dark_in(&img, 0, 0, 900, 40) > 100);     /* the legend's first two rows (black: total) */
-        CHECK(ink_in(&img, 0, 40, 900, 60) > 20);      /* its third row (the last curve's name, brown) */
+        CHECK(ink_in(&img, 0, 0, 900, 40) > 100);      /* the legend's first two rows (the terms) */
+        CHECK(dark_in(&img, 0, 40, 900, 60) > 20);     /* its third row (fit_pair, the total in black, disc) */
         /* the curves: the total (black) apart from the terms, which all fall from 1 to 0.001 */
         CHECK(dark_in(&img, 70, 68, 880, 436) > 100);
     }
@@ -1402,6 +1502,7 @@ int main(void)
     test_shading_prior_options();
     test_light_from_image();
     test_light_pair();
+    test_fit_pair();
     test_loss_plot();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);

@@ -121,7 +121,7 @@ head -1 run/loss.csv | grep -q ",shading_mean," || fail "no shading_mean column:
 expect 0 $H train data -o noanchor $T --iters 2 --every 2 --w-shading-mean 0
 awk -F, 'NR == 2 { exit !($11 > 0) }' run/loss.csv || fail "shading_mean should be on by default"
 # the shading prior: a tenth column, on by default: weight 0 changes the first step's total only
-head -1 run/loss.csv | grep -q ",shading_prior,light_pair,disc," || fail "no shading_prior column: $(head -1 run/loss.csv)"
+head -1 run/loss.csv | grep -q ",shading_prior,light_pair,fit_pair,disc," || fail "no shading_prior column: $(head -1 run/loss.csv)"
 awk -F, 'NR == 2 { exit !($12 > 0) }' run/loss.csv || fail "the shading prior's value should be positive"
 expect 0 $H train data -o noprior $T --iters 2 --every 2 --w-shading-prior 0
 [ "$(sed -n 2p noprior/loss.csv | cut -d, -f3-12)" = "$(sed -n 2p run/loss.csv | cut -d, -f3-12)" ] ||
@@ -200,21 +200,32 @@ expect 0 $H train data -o same2 $T --iters 1 --every 1 --init run/model.safetens
     fail "the weight of L_lpair changed the first step's terms"
 [ "$(sed -n 2p same2/loss.csv | cut -d, -f2)" != "$(sed -n 2p same1/loss.csv | cut -d, -f2)" ] ||
     fail "the weight of L_lpair did not change the total"
+# L_fpair: a fourteenth column, 0 until its weight is set, then on the same-light pairs, where
+# its weight changes the total only
+awk -F, 'NR > 1 && $14 != 0 { exit 1 }' same1/loss.csv || fail "L_fpair without --w-fit-pair: $(cat same1/loss.csv)"
+expect 0 $H train data -o same3 $T --iters 1 --every 1 --init run/model.safetensors --real real2 --real-share 1 --real-same-light --w-fit-pair 2
+awk -F, 'NR > 1 && !($14 > 0) { exit 1 }' same3/loss.csv || fail "no L_fpair with --w-fit-pair: $(cat same3/loss.csv)"
+[ "$(sed -n 2p same3/loss.csv | cut -d, -f3-13)" = "$(sed -n 2p same1/loss.csv | cut -d, -f3-13)" ] ||
+    fail "the weight of L_fpair changed the first step's other terms"
+[ "$(sed -n 2p same3/loss.csv | cut -d, -f2)" != "$(sed -n 2p same1/loss.csv | cut -d, -f2)" ] ||
+    fail "the weight of L_fpair did not change the total"
+expect 0 $H train data -o same4 $T --iters 1 --every 1 --init run/model.safetensors --real real2 --real-share 1 --w-fit-pair 2
+awk -F, 'NR > 1 && $14 != 0 { exit 1 }' same4/loss.csv || fail "L_fpair on unrelated pairs: $(cat same4/loss.csv)"
 expect 2 $H train data -o y --real-same-light
-# a run from before light_pair (its loss.csv without that column) resumes into today's columns:
-# the old rows keep their values, light_pair reads 0 there, every row has 15 fields
+# a run from before light_pair and fit_pair (its loss.csv without those columns) resumes into
+# today's columns: the old rows keep their values, both read 0 there, every row has 16 fields
 expect 0 $H train data -o oldcsv $T --iters 2 --every 2
-awk -F, -v OFS=, '{ $13 = ""; sub(",,", ","); print }' oldcsv/loss.csv > oldcsv/old.csv
+awk -F, -v OFS=, '{ $13 = ""; $14 = ""; sub(",,,", ","); print }' oldcsv/loss.csv > oldcsv/old.csv
 head -1 oldcsv/old.csv | grep -q ",shading_prior,disc,seconds$" || fail "the old-format loss.csv was not made: $(head -1 oldcsv/old.csv)"
 cp oldcsv/loss.csv oldcsv/new.csv
 mv oldcsv/old.csv oldcsv/loss.csv
 expect 0 $H train data -o oldcsv $T --iters 3 --every 3 --resume
-awk -F, 'NF != 15 { exit 1 }' oldcsv/loss.csv || fail "resumed rows with the wrong column count: $(cat oldcsv/loss.csv)"
+awk -F, 'NF != 16 { exit 1 }' oldcsv/loss.csv || fail "resumed rows with the wrong column count: $(cat oldcsv/loss.csv)"
 [ "$(head -1 oldcsv/loss.csv)" = "$(head -1 oldcsv/new.csv)" ] || fail "the resumed header is not today's"
 for r in 2 3; do
-    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f1-12,14-15)" = "$(sed -n ${r}p oldcsv/new.csv | cut -d, -f1-12,14-15)" ] ||
+    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f1-12,15-16)" = "$(sed -n ${r}p oldcsv/new.csv | cut -d, -f1-12,15-16)" ] ||
         fail "row $r of an old-format loss.csv changed on resume: $(sed -n ${r}p oldcsv/loss.csv)"
-    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f13)" = 0 ] || fail "an old row's light_pair is not 0"
+    [ "$(sed -n ${r}p oldcsv/loss.csv | cut -d, -f13-14)" = 0,0 ] || fail "an old row's light_pair or fit_pair is not 0"
 done
 expect_saying 2 "w-shading-prior must not be negative" $H train data -o y --w-shading-prior -1
 expect 2 $H train data -o y --mirror-pairs

@@ -100,6 +100,9 @@ int cmd_train(int argc, char **argv)
          "not the paper's: weight of the shading prior |S - s(N_bar, l_img)| (default 1; 0 turns it off)"},
         {"w-light-pair", 0, CLI_OPT_FLOAT, &w[HD_LOSS_LIGHT_PAIR], "X",
          "not the paper's: weight of L_lpair |l_j - R l_i| on mirror pairs and --real-same-light pairs (default 0)"},
+        {"w-fit-pair", 0, CLI_OPT_FLOAT, &w[HD_LOSS_FIT_PAIR], "X",
+         "not the paper's: weight of L_fpair |f_j - R f_i|, f the face's own light relighting fits to S on N,"
+         " on the same pairs (default 0)"},
         {"shading-prior-iters", 0, CLI_OPT_INT, &prior_iters, "K",
          "the shading prior's weight falls linearly to 0 over the first K iterations (default 0: constant)"},
         {"shading-mean", 0, CLI_OPT_FLOAT, &shading_mean, "C",
@@ -112,7 +115,7 @@ int cmd_train(int argc, char **argv)
         {"real-weight", 0, CLI_OPT_FLOAT, &real_weight, "X", "loss weight of --real pairs, every term but L_adv (default 1)"},
         {"mirror-pairs", 0, CLI_OPT_FLAG, &mirror, NULL, "half the --real pairs are a photo and its mirror image"},
         {"real-same-light", 0, CLI_OPT_FLAG, &same_light, NULL,
-         "the --real photos of one person were taken under one light (their pairs get L_lpair)"},
+         "the --real photos of one person were taken under one light (their pairs get L_lpair and L_fpair)"},
         {"prior-normals", 0, CLI_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
         {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt|image",

@@ -53,8 +53,8 @@ static int cholesky_solve(double A[K][K], double r[K], double x[K])
     return 0;
 }
 
-/* The masked normal equations: A = sum_p m_p b b^T (both triangles), r = sum_p m_p s_p b, with
- * the count of pixels used (m_p > 0) and their total weight. */
+/* The masked normal equations: A = sum_p m_p b b^T (both triangles), r = sum_p m_p s_p b (0 when
+ * shading is NULL), with the count of pixels used (m_p > 0) and their total weight. */
 static hd_status normal_equations(const float *normal, const float *shading, const float *mask, int npix,
                                   double A[K][K], double r[K], long *used_out, double *weight_out)
 {
@@ -67,7 +67,8 @@ static hd_status normal_equations(const float *normal, const float *shading, con
         float m = mask ? mask[p] : 1.0f;
         if (!isfinite(m)) return hd_fail(HD_ERR_NUMERIC, "sh fit: mask is not finite at pixel %d", p);
         if (!(m > 0.0f)) continue;
-        if (!isfinite(nx[p]) || !isfinite(ny[p]) || !isfinite(nz[p]) || !isfinite(shading[p]))
+        const float sp = shading ? shading[p] : 0.0f;
+        if (!isfinite(nx[p]) || !isfinite(ny[p]) || !isfinite(nz[p]) || !isfinite(sp))
             return hd_fail(HD_ERR_NUMERIC, "sh fit: normal or shading is not finite at pixel %d", p);
         const float n[3] = {nx[p], ny[p], nz[p]};
         float bf[K];
@@ -76,7 +77,7 @@ static hd_status normal_equations(const float *normal, const float *shading, con
         for (int i = 0; i < K; i++) b[i] = bf[i];
         for (int i = 0; i < K; i++) {
             double mb = m * b[i];
-            r[i] += mb * shading[p];
+            r[i] += mb * sp;
             for (int j = 0; j <= i; j++) A[i][j] += mb * b[j]; /* lower triangle of sum m b b^T */
         }
         used++;
@@ -138,6 +139,24 @@ hd_status hd_sh_fit_toward(const float *normal, const float *shading, const floa
     long used;
     hd_status st = normal_equations(normal, shading, mask, npix, A, r, &used, &weight);
     return st == HD_OK ? solve_toward(A, r, used, weight, pull, strength, light) : st;
+}
+
+hd_status hd_sh_fit_adjoint(const float *normal, const float *mask, int npix, float strength,
+                            const float g[HD_SH_COEFFS], float y[HD_SH_COEFFS])
+{
+    memset(y, 0, K * sizeof *y);
+    if (npix < 0 || (npix > 0 && !normal) || !(strength >= 0.0f) || !isfinite(strength))
+        return hd_fail(HD_ERR_ARG, "sh fit adjoint: invalid arguments (npix %d, strength %g)", npix, strength);
+    for (int k = 0; k < K; k++)
+        if (!isfinite(g[k])) return hd_fail(HD_ERR_NUMERIC, "sh fit adjoint: coefficient %d is not finite", k);
+    double A[K][K], r[K], weight;
+    long used;
+    hd_status st = normal_equations(normal, NULL, mask, npix, A, r, &used, &weight);
+    if (st != HD_OK || used == 0) return st; /* no pixel: the fit is the prior, which S does not move */
+    /* the system solve_toward factors (A + ridge + lambda) with g for r and no pull: y = M^-1 g */
+    static const float none[K] = {0};
+    for (int k = 0; k < K; k++) r[k] = g[k];
+    return solve_toward(A, r, used, weight, none, strength, y);
 }
 
 /* The lobe fit's cost at one direction: the best ambient a and intensity i >= 0 of

@@ -8,16 +8,18 @@
 #include "model/losses.h"
 #include "light/light.h"
 #include "mesh/mesh.h"
+#include "apply/apply.h" /* the face's own light fit's layout (fit_pair) */
 
 #define HD_SMOOTH_EPS 0.01f
 
 const char *const hd_loss_names[HD_LOSS_TERMS] = {"rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt",
-                                                    "shading_mean", "shading_prior", "light_pair"};
+                                                    "shading_mean", "shading_prior", "light_pair",
+                                                    "fit_pair"};
 
 hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
 {
-    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 1.0f, 0.0f};
-    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 1.0f, 0.0f};
+    static const float gt[HD_LOSS_TERMS] = {0.25f, 0.25f, 0.1f, 0.5f, 0.01f, 0.01f, 0.001f, 0.0f, 1.0f, 1.0f, 0.0f, 0.0f};
+    static const float dpr[HD_LOSS_TERMS] = {0.25f, 0.15f, 0.01f, 0.5f, 0.01f, 0.01f, 0.0001f, 0.0f, 1.0f, 1.0f, 0.0f, 0.0f};
     if (strcmp(name, "gt") == 0) memcpy(w->w, gt, sizeof gt);
     else if (strcmp(name, "dpr") == 0) memcpy(w->w, dpr, sizeof dpr);
     else return hd_fail(HD_ERR_ARG, "unknown weight set '%s' (gt or dpr)", name);
@@ -57,6 +59,10 @@ void hd_losses_free(hd_losses *L)
     free(L->prior);
     free(L->skin);
     free(L->fit_weight);
+    free(L->fit_layout);
+    free(L->fit_light);
+    free(L->fit_prior);
+    free(L->fit_mask);
     memset(L, 0, sizeof *L);
 }
 
@@ -80,6 +86,30 @@ hd_status hd_losses_fit_skin_only(hd_losses *L)
     hd_image_free(&parts);
     free(L->skin), free(L->fit_weight);
     L->skin = skin, L->fit_weight = fw;
+    return HD_OK;
+}
+
+hd_status hd_losses_fit_pair_on(hd_losses *L)
+{
+    hd_net *net = L->net;
+    if (net->H != net->W)
+        return hd_fail(HD_ERR_ARG, "the fit-pair term needs a square network (%d x %d)", net->W, net->H);
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
+    hd_image regions = {0}, lower = {0};
+    hd_status st = hd_face_regions_uv(net->W, &regions);
+    if (st == HD_OK) st = hd_face_fit_weight_uv(net->W, HD_FIT_LOWER_FACE, &lower);
+    float *layout = st == HD_OK ? hd_malloc(HW * sizeof(float)) : NULL, *mask = hd_malloc(HW * sizeof(float));
+    float *light = hd_calloc(B * HD_SH_COEFFS, sizeof(float)), *prior = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
+    if (st == HD_OK && (!layout || !mask || !light || !prior)) st = HD_ERR_NOMEM;
+    for (size_t p = 0; st == HD_OK && p < HW; p++) layout[p] = regions.data[p] <= 0.5f ? lower.data[p] : 0.0f;
+    hd_image_free(&regions);
+    hd_image_free(&lower);
+    if (st != HD_OK) {
+        free(layout), free(mask), free(light), free(prior);
+        return st;
+    }
+    free(L->fit_layout), free(L->fit_mask), free(L->fit_light), free(L->fit_prior);
+    L->fit_layout = layout, L->fit_mask = mask, L->fit_light = light, L->fit_prior = prior;
     return HD_OK;
 }
 
@@ -188,6 +218,51 @@ static hd_status prior_targets(hd_losses *L)
     return HD_OK;
 }
 
+/* Whether pair p's two lights are related (L_lpair's and L_fpair's pairs), and R: 1 or the mirror. */
+static int related_pair(const hd_losses *L, int p, float r[HD_SH_COEFFS])
+{
+    const unsigned char *rel = L->batch->pair_light;
+    if (!rel || (rel[p] != HD_PAIR_LIGHT_SAME && rel[p] != HD_PAIR_LIGHT_MIRROR)) return 0;
+    for (int k = 0; k < HD_SH_COEFFS; k++) r[k] = 1.0f;
+    if (rel[p] == HD_PAIR_LIGHT_MIRROR) hd_light_mirror(r);
+    return 1;
+}
+
+/* The weight of image b's texels in its own light fit: the layout where the mask is > 0.5 (the
+ * rule's skin), in L->fit_mask. */
+static const float *fit_pair_weight(hd_losses *L, int b)
+{
+    size_t HW = (size_t)L->net->H * L->net->W;
+    const float *m = L->batch->mask + (size_t)b * HW;
+    for (size_t p = 0; p < HW; p++) L->fit_mask[p] = m[p] > 0.5f ? L->fit_layout[p] : 0.0f;
+    return L->fit_mask;
+}
+
+/* f of both images of every related pair (fit_pair on): the lobe of S on N (detached: kept as it
+ * is by a gradient check), then the fit of S on N toward it, as hd_face_light computes it. */
+static hd_status fit_pair_lights(hd_losses *L)
+{
+    hd_net *net = L->net;
+    int HW = net->H * net->W;
+    float r[HD_SH_COEFFS];
+    for (int p = 0; L->fit_layout && p < net->B / 2; p++) {
+        if (!related_pair(L, p, r)) continue;
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = fit_pair_weight(L, b);
+            float *prior = L->fit_prior + (size_t)b * HD_SH_COEFFS, *f = L->fit_light + (size_t)b * HD_SH_COEFFS;
+            hd_status st = L->hold_light_hat ? HD_OK : hd_sh_fit_lobe(N, S, w, HW, prior);
+            if (st == HD_OK) st = hd_sh_fit_toward(N, S, w, HW, prior, HD_SOURCE_PRIOR, f);
+            if (st != HD_OK) {
+                char why[300];
+                snprintf(why, sizeof why, "%s", hd_error());
+                return hd_fail(st, "the face's own light of image %d: %s", b, why);
+            }
+        }
+    }
+    return HD_OK;
+}
+
 hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_target target)
 {
     hd_net *net = L->net;
@@ -219,6 +294,8 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
             if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
                 return hd_fail(HD_ERR_NUMERIC, "the least-squares light target of image %d is not finite", b);
     }
+    hd_status st = fit_pair_lights(L);
+    if (st != HD_OK) return st;
     /* the shading prior's targets, on N_bar or (prior_predicted) on N, detached; a gradient check
      * holds them with light_hat */
     if (!(L->hold_light_hat && L->prior_predicted)) return prior_targets(L);
@@ -433,15 +510,12 @@ double hd_loss_light_pair(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
     int P = net->B / 2;
-    const unsigned char *rel = L->batch->pair_light;
     double sum = 0;
-    for (int p = 0; rel && p < P; p++) {
-        if (rel[p] != HD_PAIR_LIGHT_SAME && rel[p] != HD_PAIR_LIGHT_MIRROR) continue;
+    float r[HD_SH_COEFFS];
+    for (int p = 0; p < P; p++) {
+        if (!related_pair(L, p, r)) continue;
         const float *li = net->light + (size_t)2 * p * HD_SH_COEFFS, *lj = li + HD_SH_COEFFS;
         float *dli = net->d_light + (size_t)2 * p * HD_SH_COEFFS, *dlj = dli + HD_SH_COEFFS;
-        float r[HD_SH_COEFFS];
-        for (int k = 0; k < HD_SH_COEFFS; k++) r[k] = 1.0f;
-        if (rel[p] == HD_PAIR_LIGHT_MIRROR) hd_light_mirror(r);
         double s = 0;
         const float g = scale * wgt(L, 2 * p) / P / HD_SH_COEFFS;
         for (int k = 0; k < HD_SH_COEFFS; k++) {
@@ -453,6 +527,49 @@ double hd_loss_light_pair(hd_losses *L, float scale)
             }
         }
         sum += wgt(L, 2 * p) * s / HD_SH_COEFFS;
+    }
+    return sum / P;
+}
+
+/* L_fpair = mean over pairs of mean_k |d_k|, d = f_j - R f_i. With g = dL/df of one image and y =
+ * M^-1 g (the fit's adjoint), f = M^-1 r, r = sum_p w_p S_p b(n_p) + lambda prior, M = sum_p w_p
+ * b b^T + (ridge + lambda) I:  dS_p = w_p s(n_p, y),
+ * dN_p = w_p [(S_p - s(n_p, f)) grad_n s(n_p, y) - s(n_p, y) grad_n s(n_p, f)]
+ * (the ridge's own change with N, 1e-6 of the trace, is left out). */
+double hd_loss_fit_pair(hd_losses *L, float scale)
+{
+    hd_net *net = L->net;
+    int P = net->B / 2, HW = net->H * net->W;
+    double sum = 0;
+    float r[HD_SH_COEFFS];
+    for (int p = 0; L->fit_layout && p < P; p++) {
+        if (!related_pair(L, p, r)) continue;
+        const float *fi = L->fit_light + (size_t)2 * p * HD_SH_COEFFS, *fj = fi + HD_SH_COEFFS;
+        float g[2][HD_SH_COEFFS];
+        const float gs = scale * wgt(L, 2 * p) / P / HD_SH_COEFFS;
+        double s = 0;
+        for (int k = 0; k < HD_SH_COEFFS; k++) {
+            float d = fj[k] - r[k] * fi[k], sg = (float)((d > 0) - (d < 0));
+            s += fabsf(d);
+            g[1][k] = gs * sg;
+            g[0][k] = -gs * sg * r[k];
+        }
+        sum += wgt(L, 2 * p) * s / HD_SH_COEFFS;
+        if (scale == 0.0f) continue;
+        for (int k = 0; k < 2; k++) {
+            int b = 2 * p + k;
+            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = fit_pair_weight(L, b);
+            const float *f = L->fit_light + (size_t)b * HD_SH_COEFFS;
+            float *dN = net->d_normal + (size_t)b * 3 * HW, *dS = net->d_shading + (size_t)b * HW, y[HD_SH_COEFFS];
+            if (hd_sh_fit_adjoint(N, w, HW, HD_SOURCE_PRIOR, g[k], y) != HD_OK) continue; /* prepare solved it */
+            for (int q = 0; q < HW; q++) {
+                if (!(w[q] > 0.0f)) continue;
+                float n[3] = {N[q], N[HW + q], N[2 * HW + q]}, gy[3], gf[3];
+                float sy = hd_sh_shade_grad(y, n, gy), res = S[q] - hd_sh_shade_grad(f, n, gf);
+                dS[q] += w[q] * sy;
+                for (int c = 0; c < 3; c++) dN[(size_t)c * HW + q] += w[q] * (res * gy[c] - sy * gf[c]);
+            }
+        }
     }
     return sum / P;
 }
@@ -539,6 +656,7 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
     terms[HD_LOSS_SHADING_MEAN] = hd_loss_shading_mean(L, s[HD_LOSS_SHADING_MEAN]);
     terms[HD_LOSS_SHADING_PRIOR] = hd_loss_shading_prior(L, s[HD_LOSS_SHADING_PRIOR]);
     terms[HD_LOSS_LIGHT_PAIR] = hd_loss_light_pair(L, s[HD_LOSS_LIGHT_PAIR]);
+    terms[HD_LOSS_FIT_PAIR] = hd_loss_fit_pair(L, s[HD_LOSS_FIT_PAIR]);
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

@@ -32,11 +32,14 @@ typedef enum hd_loss_term {
                             * light on the coarse normals (weight 1 in both presets; docs/training.md) */
     HD_LOSS_LIGHT_PAIR, /* not the paper's: L_lpair, mean_k |l_j - R l_i| over the pairs whose lights the
                          * data relates (R = 1 or the mirror; weight 0 in both presets; docs/training.md) */
+    HD_LOSS_FIT_PAIR, /* not the paper's: L_fpair, mean_k |f_j - R f_i| with f the face's own light that
+                       * relighting uses (the fit of S on N, hd_face_light) over the same pairs (weight 0 in
+                       * both presets; docs/training.md) */
     HD_LOSS_TERMS
 } hd_loss_term;
 
 /* Short names ("rec", "albedo", "smooth", "normal", "light", "srec", "adv", "albedo_gt", "shading_mean",
- * "shading_prior", "light_pair"): CSV columns, the --w-NAME options and the dump's loss.NAME tensors. */
+ * "shading_prior", "light_pair", "fit_pair"): CSV columns, the --w-NAME options and the dump's loss.NAME tensors. */
 extern const char *const hd_loss_names[HD_LOSS_TERMS];
 
 typedef struct hd_loss_weights {
@@ -70,6 +73,11 @@ typedef struct hd_losses {
     float *skin;       /* (HW) or NULL: 1 on skin, 0 on the eyes, brows and inner lips, where the photo's
                         * own light is fitted without them (hd_losses_fit_skin_only) */
     float *fit_weight; /* (HW) scratch: mask times skin */
+    float *fit_layout; /* (HW) or NULL (fit_pair off): the weight of each texel in the face's own light
+                        * fit, the skin times the lower face's weight (hd_losses_fit_pair_on) */
+    float *fit_light;  /* (B, 9) f: the face's own light of each image of a related pair */
+    float *fit_prior;  /* (B, 9) the lobe each f is pulled toward, detached (held by gradient checks) */
+    float *fit_mask;   /* (HW) scratch: the fit's weight for one image, fit_layout on its mask */
 } hd_losses;
 
 hd_status hd_losses_create(hd_losses *L, hd_net *net);
@@ -82,6 +90,11 @@ void hd_losses_free(hd_losses *L);
  * (the aligned texture space); --light-fit skin. */
 #define HD_LOSSES_PARTS_GROW 0.02f
 hd_status hd_losses_fit_skin_only(hd_losses *L);
+
+/* Turns the term fit_pair on (its weight alone does not): the texel weights of the face's own
+ * light fit, the layout hd_face_light uses (the face regions out, the face below the nose at
+ * HD_FIT_LOWER_FACE). Needs a square network (the aligned texture space). */
+hd_status hd_losses_fit_pair_on(hd_losses *L);
 
 /* After hd_net_forward: computes s(N, l), the render m*A*s(N, l) and l_hat (from the coarse or the
  * predicted normals; the batch's ground-truth light where it has one) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */
@@ -107,6 +120,12 @@ double hd_loss_shading_prior(hd_losses *L, float scale);
  * HD_PAIR_LIGHT_SAME pairs and hd_light_mirror for HD_PAIR_LIGHT_MIRROR ones, 0 for the others;
  * reaches both images' L-Net outputs, weighted by image i's domain weight. */
 double hd_loss_light_pair(hd_losses *L, float scale);
+/* Not the paper's, L_fpair: mean over the pairs L_lpair takes of mean_k |f_j,k - (R f_i)_k|, f the
+ * face's own light the relighting rule uses (hd_face_light's fit of S on N over the skin, pulled
+ * toward the lobe with HD_SOURCE_PRIOR, the lobe detached); reaches S and N of both images by the
+ * fit's adjoint (hd_sh_fit_adjoint), weighted by image i's domain weight. 0 unless
+ * hd_losses_fit_pair_on. */
+double hd_loss_fit_pair(hd_losses *L, float scale);
 /* Generator side: runs the discriminator on the render (its parameters get no gradient). */
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render

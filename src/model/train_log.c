@@ -184,7 +184,7 @@ hd_status hd_train_log_plot(const hd_train_log *h, const char *path)
     static const float colours[][3] = {
         {0.85f, 0.1f, 0.1f}, {0.1f, 0.6f, 0.1f}, {0.1f, 0.3f, 0.9f}, {0.9f, 0.6f, 0.0f}, {0.6f, 0.1f, 0.7f},
         {0.0f, 0.7f, 0.7f},  {0.5f, 0.5f, 0.5f}, {0.9f, 0.4f, 0.7f}, {0.55f, 0.55f, 0.0f}, {0.45f, 0.85f, 0.2f},
-        {0.3f, 0.3f, 0.55f}, {0.0f, 0.0f, 0.0f},  {0.7f, 0.4f, 0.2f}};
+        {0.3f, 0.3f, 0.55f}, {0.95f, 0.3f, 0.0f}, {0.0f, 0.0f, 0.0f},  {0.7f, 0.4f, 0.2f}};
     _Static_assert(sizeof colours / sizeof colours[0] == HD_TRAIN_LOG_COLS, "one plot colour per loss column");
     const float ink[3] = {0.2f, 0.2f, 0.2f}, grid[3] = {0.85f, 0.85f, 0.85f};
     /* the plot area [left, Wd - right] x [top, Ht - bottom] */
