@@ -184,7 +184,7 @@ tests: $(TESTBIN) $(TESTHELPERS) $(BUILD)/hdnet $(BUILD)/libhdnet.so
 -include $(OBJ:.o=.d) $(TOOLOBJ:.o=.d) $(TESTBIN:=.d) $(TESTHELPERS:=.d)
 
 # Runs each C test, then each shell test (which drive the built hdnet tool), all of them, ending with
-# "N passed, N failed" (and a nonzero status if any failed).
+# "N passed, N failed, N skipped" (and a nonzero status if any failed).
 test: tests
 	@HDNET=$(abspath $(BUILD)/hdnet) BUILD=$(abspath $(BUILD)) sh tests/run.sh $(abspath $(TESTBIN))
 

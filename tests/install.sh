@@ -145,6 +145,7 @@ PY
         fail "the installed Python module did not relight the photo as hdnet relight"
     echo "install: the installed Python module relit the photo exactly as hdnet relight"
 else
+    [ -z "${CI:-}" ] || [ "${CI:-}" = false ] || fail "the Python module cannot be checked in CI: Debian's python3 and python3-numpy are missing"
     echo "install: SKIP the Python module: needs Debian's python3 and python3-numpy"
 fi
 echo "install: all checks passed"

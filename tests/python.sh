@@ -9,8 +9,7 @@ TEST=python
 . "$(dirname "$0")/cli_common.shlib"
 py=/usr/bin/python3
 if [ ! -x $py ] || ! $py -c 'import numpy' 2>/dev/null; then
-    echo "SKIP python: needs Debian's python3 and python3-numpy (make deps installs them)"
-    exit 0
+    skip "needs Debian's python3 and python3-numpy (make deps installs them)"
 fi
 [ -e "$BUILD/libhdnet.so.0" ] || fail "$BUILD/libhdnet.so.0 is not built"
 export HDNET_LIBRARY="$BUILD/libhdnet.so.0" PYTHONPATH="$root/python" HDNET_DATA="$root/models"

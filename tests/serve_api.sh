@@ -15,12 +15,10 @@ TEST=serve_api
 . "$(dirname "$0")/cli_common.shlib"
 
 if ! command -v curl >/dev/null 2>&1; then
-    echo "SKIP serve_api: curl is not installed (apt-get install curl)"
-    exit 0
+    skip "curl is not installed (apt-get install curl)"
 fi
 if "$HDNET" serve --max-photos 0 2>&1 | grep -q libmicrohttpd; then
-    echo "SKIP serve_api: hdnet was built without libmicrohttpd (apt-get install libmicrohttpd-dev, rebuild)"
-    exit 0
+    skip "hdnet was built without libmicrohttpd (apt-get install libmicrohttpd-dev, rebuild)"
 fi
 
 photo="$root/examples/astronaut.png"

@@ -1,25 +1,12 @@
 /* apply.h: internal to src/apply: the pieces of the relighting rule (docs/usage.md, "The relighting
- * rule"): the face regions a face model does not explain (regions.c), the smooth fields the rule
- * works with (fields.c: hole filling, blurring, feathering) and the log-ratio field itself
- * (rule.c), which apply.c puts onto textures and photos. */
+ * rule"): the smooth fields the rule works with (fields.c: hole filling, blurring, feathering) and
+ * the log-ratio field itself (rule.c), which apply.c puts onto textures and photos. The face's
+ * regions it works around are src/mesh's (regions.c). */
 #ifndef HD_APPLY_H
 #define HD_APPLY_H
 
 #include "hdnet.h"
 
-/* The regions where the change follows the skin around: the eyes (sclera, iris, lids), the inside
- * of the mouth, the eyebrows. Polygons over the 468 landmarks' contours, read in the canonical
- * mesh's UV layout, so one map serves every face. */
-/* Rasterises the regions into a size x size texture-space map (1 inside, 0 outside), each
- * polygon grown by HD_REGION_GROW of the texture side. */
-#define HD_REGION_GROW 0.012f
-hd_status hd_face_regions_uv(int size, hd_image *regions);
-/* The weight of each texel in the face's own light fit (hd_face_light), size x size, 1 plane: 1
- * down to the nose tip's row (landmark 1), falling smoothly to lower at the mouth corners' row
- * (landmarks 61 and 291) and lower below. An expression moves the mouth, the cheeks below the
- * nose and the jaw, the light does not: the fit leans on the face above the nose. */
-#define HD_FIT_LOWER_FACE 0.25f
-hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight);
 /* Fills v (w x h, one plane) where known[p] <= 0.5 from the known values around (push-pull over
  * a pyramid: an unknown texel gets a smooth blend of the nearest known ones). Fails only for want
  * of memory; with nothing known, v is set to 0. */
@@ -88,8 +75,6 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,
                            hd_brightness brightness, hd_image *out);
 
-/* The centres of the two eyes (the means of their contour landmarks), in the landmarks' frame. */
-void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2]);
 
 /* The before / after sheet of a photo's face 0 (sheet.c, docs/usage.md): row 0 the paper's rule,
  * row 1 the ratio rule; columns: the photo, the seven presets (brightness kept), the delit face;

@@ -13,6 +13,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "apply/apply.h"
+#include "mesh/mesh.h"
 
 /* Heights are in eye distances above the line through the eyes, along the chin-to-forehead axis. */
 #define SAMPLE_LOW -0.8f  /* the face's skin is sampled on the mesh between these heights (cheeks, nose) */

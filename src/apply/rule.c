@@ -8,8 +8,8 @@
  * face's mean source shading, HD_RATIO_GUARD by default) where the denominator is small. r is exactly 1 when the
  * light does not change, is one factor for all three channels under a grey light, and is smooth
  * because it is a ratio of two low-order renders. Where the model does not explain the face (eyes,
- * the inside of the mouth, brows: regions.c) and outside the face's mask, log r is filled from the
- * skin around, so that the eyes, the mouth and the brows change as the skin around them does; the
+ * the inside of the mouth, brows: src/mesh/regions.c) and outside the face's mask, log r is filled
+ * from the skin around, so that the eyes, the mouth and the brows change as the skin around them does; the
  * field is then blurred a little, feathered to nothing at the face's edge and applied with one
  * brightness factor. */
 #include <math.h>
@@ -17,6 +17,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "apply/apply.h"
+#include "mesh/mesh.h"
 #include "light/light.h"
 
 /* the blur of log r, a share of the texture side */

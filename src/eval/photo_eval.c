@@ -12,6 +12,7 @@
 #include "io/dataset.h"
 #include "eval/eval_json.h"
 #include "apply/apply.h"
+#include "mesh/mesh.h"
 
 static const char *const METRIC_NAMES[HD_PHOTO_METRICS] = {"chroma", "detail", "glow", "seam", "self", "light", "lum"};
 

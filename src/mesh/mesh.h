@@ -43,6 +43,23 @@ extern const int hd_contour_right_eye[], hd_contour_left_eye[], hd_contour_inner
  * 0 elsewhere. */
 hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_share, int size, hd_image *out);
 
+/* The regions a face model does not explain (regions.c), where the relighting change follows the
+ * skin around: the eyes (sclera, iris, lids), the inside of the mouth, the eyebrows. Polygons over
+ * the 468 landmarks' contours, read in the canonical mesh's UV layout, so one map serves every
+ * face. */
+/* Rasterises the regions into a size x size texture-space map (1 inside, 0 outside), each
+ * polygon grown by HD_REGION_GROW of the texture side. */
+#define HD_REGION_GROW 0.012f
+hd_status hd_face_regions_uv(int size, hd_image *regions);
+/* The weight of each texel in the face's own light fit (hd_face_light), size x size, 1 plane: 1
+ * down to the nose tip's row (landmark 1), falling smoothly to lower at the mouth corners' row
+ * (landmarks 61 and 291) and lower below. An expression moves the mouth, the cheeks below the
+ * nose and the jaw, the light does not: the fit leans on the face above the nose. */
+#define HD_FIT_LOWER_FACE 0.25f
+hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight);
+/* The centres of the two eyes (the means of their contour landmarks), in the landmarks' frame. */
+void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2]);
+
 /* For each texel centre ((x + 0.5) / size, (y + 0.5) / size) of a size x size UV map: the index
  * of the triangle that covers it in UV space (-1 if none) and its barycentric weights. */
 typedef struct hd_uv_raster {

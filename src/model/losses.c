@@ -8,7 +8,6 @@
 #include "model/losses.h"
 #include "light/light.h"
 #include "mesh/mesh.h"
-#include "apply/apply.h" /* the face's own light fit's layout (fit_pair) */
 
 #define HD_SMOOTH_EPS 0.01f
 

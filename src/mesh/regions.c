@@ -7,11 +7,13 @@
 #include <string.h>
 #include "core/core.h"
 #include "mesh/mesh.h"
-#include "apply/apply.h"
 
 static const int *const REGIONS[] = {hd_contour_right_eye, hd_contour_left_eye, hd_contour_inner_lips,
                                      hd_contour_right_brow, hd_contour_left_brow};
 #define NREGIONS ((int)(sizeof REGIONS / sizeof REGIONS[0]))
+
+/* 0 below 0, 1 above 1, a cubic between with zero slope at both ends. */
+static float smoothstep(float t) { return t <= 0 ? 0 : t >= 1 ? 1 : t * t * (3 - 2 * t); }
 
 static const int *const EYES[2] = {hd_contour_right_eye, hd_contour_left_eye};
 
@@ -46,7 +48,7 @@ hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight)
     if (!(bottom > top)) return hd_fail(HD_ERR_FORMAT, "fit weight: the mouth corners are not below the nose tip");
     if ((st = hd_image_alloc(weight, size, size, 1)) != HD_OK) return st;
     for (int y = 0; y < size; y++) {
-        const float t = hd_field_smoothstep((y + 0.5f - top) / (bottom - top)), w = 1.0f - t + t * lower;
+        const float t = smoothstep((y + 0.5f - top) / (bottom - top)), w = 1.0f - t + t * lower;
         for (int x = 0; x < size; x++) weight->data[(size_t)y * size + x] = w;
     }
     return HD_OK;
