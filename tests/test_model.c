@@ -1389,6 +1389,51 @@ static void test_fit_pair(void)
     hd_trainer_free(&t);
 }
 
+/* ---- --light-target face: l_hat is the relighting rule's face light (hd_face_light, src/apply) of
+ * the network's own S on its normals, in stage 2 on the predicted N and in stage 1 on N_bar; L_l is
+ * mean |l - l_hat| against it; the plain fit over the mask is another light */
+
+static void test_light_from_face(void)
+{
+    enum { S = 32 };
+    const size_t HW = (size_t)S * S;
+    hd_trainer t;
+    if (!tiny_trainer(&t, 4, S, 2)) return;
+    memset(&t.weights, 0, sizeof t.weights);
+    t.weights.w[HD_LOSS_LIGHT] = 1.0f;
+    hd_step_result r;
+    for (int stage = 1; stage <= 2; stage++) {
+        t.stage = stage;
+        t.losses.light_from_face = 0;
+        CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+        float plain[4 * HD_SH_COEFFS];
+        memcpy(plain, t.losses.light_hat, sizeof plain);
+        CHECK(hd_losses_light_from_face(&t.losses) == HD_OK && t.losses.light_from_face && !t.losses.fit_pair);
+        CHECK(hd_trainer_eval(&t, &r, HD_EVAL_LOSS) == HD_OK);
+        double want = 0, apart = 0;
+        for (int b = 0; b < 4; b++) {
+            hd_decomposition d = {0};
+            float f[HD_SH_COEFFS];
+            d.shading = (hd_image){S, S, 1, t.net.shading + b * HW};
+            d.normal = (hd_image){S, S, 3, (stage == 1 ? t.batch.coarse_normal : t.net.normal) + b * 3 * HW};
+            hd_image mask = {S, S, 1, t.batch.mask + b * HW};
+            CHECK(hd_face_light(&d, &mask, HD_SOURCE_FIT, f) == HD_OK);
+            double s = 0;
+            for (int k = 0; k < HD_SH_COEFFS; k++) {
+                float lh = t.losses.light_hat[b * HD_SH_COEFFS + k];
+                CHECK_NEAR(lh, f[k], 1e-5 * (1 + fabs(f[k])));
+                s += fabs(t.net.light[b * HD_SH_COEFFS + k] - lh);
+                apart += fabs(plain[b * HD_SH_COEFFS + k] - lh);
+            }
+            want += t.batch.weight[b] * s / HD_SH_COEFFS;
+        }
+        CHECK_NEAR(r.terms[HD_LOSS_LIGHT], want / 2, 1e-5); /* the sum over a pair's two, mean over pairs */
+        CHECK(apart > 1e-3);
+        CHECK(r.terms[HD_LOSS_FIT_PAIR] == 0.0); /* the layout alone does not turn fit_pair on */
+    }
+    hd_trainer_free(&t);
+}
+
 /* ---- --light-target image: on a face of even albedo a under the light l0 over the coarse
  * normals, l_hat is the least-squares light of the luminance a s(n, l0), scaled so that the mean
  * of its shading over the mask is c: the same light whatever a is (0.2 .. 0.5 here) */
@@ -1503,6 +1548,7 @@ int main(void)
     test_light_from_image();
     test_light_pair();
     test_fit_pair();
+    test_light_from_face();
     test_loss_plot();
     test_gradients();
     fprintf(stderr, "gradients %.1f s\n", hd_seconds() - t0);

@@ -118,9 +118,11 @@ int cmd_train(int argc, char **argv)
          "the --real photos of one person were taken under one light (their pairs get L_lpair and L_fpair)"},
         {"prior-normals", 0, CLI_OPT_STRING, &prior, "coarse|gt",
          "N_bar of L_n and l_hat: NAME.normal.png (default) or NAME.normal_gt.png (the paper's -ft)"},
-        {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|gt|image",
-         "l_hat of L_l: the least-squares fit of S (default) or, not the paper's, NAME.light.txt where"
-         " present, or the fit of the image's luminance scaled to --shading-mean (no ground truth)"},
+        {"light-target", 0, CLI_OPT_STRING, &light_target, "fit|face|gt|image",
+         "l_hat of L_l: the least-squares fit of S (default) or, not the paper's, the face's own light"
+         " of S as relighting fits it (skin, lower face down-weighted, pulled toward the lobe), "
+         "NAME.light.txt where present, or the fit of the image's luminance scaled to --shading-mean"
+         " (no ground truth)"},
         {"shading-prior-normals", 0, CLI_OPT_STRING, &prior_on, "coarse|predicted",
          "not the paper's: the shading prior's normals, N_bar (default) or, in stage 2, the predicted N"},
         {"light-fit", 0, CLI_OPT_STRING, &light_fit, "face|skin",
@@ -161,8 +163,9 @@ int cmd_train(int argc, char **argv)
     if (resume && init) return cli_usage_error(&spec, "--resume and --init exclude each other");
     if (strcmp(prior, "coarse") != 0 && strcmp(prior, "gt") != 0)
         return cli_usage_error(&spec, "--prior-normals must be coarse or gt, not '%s'", prior);
-    if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "gt") != 0 && strcmp(light_target, "image") != 0)
-        return cli_usage_error(&spec, "--light-target must be fit, gt or image, not '%s'", light_target);
+    if (strcmp(light_target, "fit") != 0 && strcmp(light_target, "face") != 0 && strcmp(light_target, "gt") != 0 &&
+        strcmp(light_target, "image") != 0)
+        return cli_usage_error(&spec, "--light-target must be fit, face, gt or image, not '%s'", light_target);
     if (strcmp(prior_on, "coarse") != 0 && strcmp(prior_on, "predicted") != 0)
         return cli_usage_error(&spec, "--shading-prior-normals must be coarse or predicted, not '%s'", prior_on);
     if (strcmp(light_fit, "face") != 0 && strcmp(light_fit, "skin") != 0)
@@ -201,6 +204,7 @@ int cmd_train(int argc, char **argv)
     o.prior_normals_gt = strcmp(prior, "gt") == 0;
     o.light_target_gt = strcmp(light_target, "gt") == 0;
     o.light_target_image = strcmp(light_target, "image") == 0;
+    o.light_target_face = strcmp(light_target, "face") == 0;
     o.shading_prior_predicted = strcmp(prior_on, "predicted") == 0;
     o.light_fit_skin = strcmp(light_fit, "skin") == 0;
     if (strcmp(rec_gain, "none") != 0 && strcmp(rec_gain, "camera") != 0)

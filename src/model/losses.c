@@ -88,11 +88,12 @@ hd_status hd_losses_fit_skin_only(hd_losses *L)
     return HD_OK;
 }
 
-hd_status hd_losses_fit_pair_on(hd_losses *L)
+/* The face's own light fit's texel weights and scratch (L->fit_layout, fit_mask, fit_light, fit_prior). */
+static hd_status fit_layout_on(hd_losses *L, const char *who)
 {
     hd_net *net = L->net;
-    if (net->H != net->W)
-        return hd_fail(HD_ERR_ARG, "the fit-pair term needs a square network (%d x %d)", net->W, net->H);
+    if (net->H != net->W) return hd_fail(HD_ERR_ARG, "%s needs a square network (%d x %d)", who, net->W, net->H);
+    if (L->fit_layout) return HD_OK;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     hd_image regions = {0}, lower = {0};
     hd_status st = hd_face_regions_uv(net->W, &regions);
@@ -107,9 +108,22 @@ hd_status hd_losses_fit_pair_on(hd_losses *L)
         free(layout), free(mask), free(light), free(prior);
         return st;
     }
-    free(L->fit_layout), free(L->fit_mask), free(L->fit_light), free(L->fit_prior);
     L->fit_layout = layout, L->fit_mask = mask, L->fit_light = light, L->fit_prior = prior;
     return HD_OK;
+}
+
+hd_status hd_losses_fit_pair_on(hd_losses *L)
+{
+    hd_status st = fit_layout_on(L, "the fit-pair term");
+    if (st == HD_OK) L->fit_pair = 1;
+    return st;
+}
+
+hd_status hd_losses_light_from_face(hd_losses *L)
+{
+    hd_status st = fit_layout_on(L, "--light-target face");
+    if (st == HD_OK) L->light_from_face = 1;
+    return st;
 }
 
 /* SPEC section 2 with X = x, Y = -z, Z = y:
@@ -229,7 +243,7 @@ static int related_pair(const hd_losses *L, int p, float r[HD_SH_COEFFS])
 
 /* The weight of image b's texels in its own light fit: the layout where the mask is > 0.5 (the
  * rule's skin), in L->fit_mask. */
-static const float *fit_pair_weight(hd_losses *L, int b)
+static const float *face_fit_weight(hd_losses *L, int b)
 {
     size_t HW = (size_t)L->net->H * L->net->W;
     const float *m = L->batch->mask + (size_t)b * HW;
@@ -244,11 +258,11 @@ static hd_status fit_pair_lights(hd_losses *L)
     hd_net *net = L->net;
     int HW = net->H * net->W;
     float r[HD_SH_COEFFS];
-    for (int p = 0; L->fit_layout && p < net->B / 2; p++) {
+    for (int p = 0; L->fit_pair && p < net->B / 2; p++) {
         if (!related_pair(L, p, r)) continue;
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
-            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = fit_pair_weight(L, b);
+            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = face_fit_weight(L, b);
             float *prior = L->fit_prior + (size_t)b * HD_SH_COEFFS, *f = L->fit_light + (size_t)b * HD_SH_COEFFS;
             hd_status st = L->hold_light_hat ? HD_OK : hd_sh_fit_lobe(N, S, w, HW, prior);
             if (st == HD_OK) st = hd_sh_fit_toward(N, S, w, HW, prior, HD_SOURCE_PRIOR, f);
@@ -285,9 +299,11 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         }
         const float *src = target == HD_LIGHT_FROM_COARSE && batch->has_normal[b]
                                ? batch->coarse_normal + (size_t)b * 3 * HW : N;
-        hd_status st = L->light_from_image ? image_light(L, b, src, L->light_hat + (size_t)b * HD_SH_COEFFS)
-                                           : hd_sh_fit(src, net->shading + (size_t)b * HW, m, HW,
-                                                       L->light_hat + (size_t)b * HD_SH_COEFFS);
+        float *lh = L->light_hat + (size_t)b * HD_SH_COEFFS;
+        const float *S = net->shading + (size_t)b * HW;
+        hd_status st = L->light_from_image  ? image_light(L, b, src, lh)
+                       : L->light_from_face ? hd_sh_fit_toward_lobe(src, S, face_fit_weight(L, b), HW, HD_SOURCE_PRIOR, lh)
+                                            : hd_sh_fit(src, S, m, HW, lh);
         if (st != HD_OK) return st;
         for (int k = 0; k < HD_SH_COEFFS; k++)
             if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
@@ -541,7 +557,7 @@ double hd_loss_fit_pair(hd_losses *L, float scale)
     int P = net->B / 2, HW = net->H * net->W;
     double sum = 0;
     float r[HD_SH_COEFFS];
-    for (int p = 0; L->fit_layout && p < P; p++) {
+    for (int p = 0; L->fit_pair && p < P; p++) {
         if (!related_pair(L, p, r)) continue;
         const float *fi = L->fit_light + (size_t)2 * p * HD_SH_COEFFS, *fj = fi + HD_SH_COEFFS;
         float g[2][HD_SH_COEFFS];
@@ -557,7 +573,7 @@ double hd_loss_fit_pair(hd_losses *L, float scale)
         if (scale == 0.0f) continue;
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
-            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = fit_pair_weight(L, b);
+            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = face_fit_weight(L, b);
             const float *f = L->fit_light + (size_t)b * HD_SH_COEFFS;
             float *dN = net->d_normal + (size_t)b * 3 * HW, *dS = net->d_shading + (size_t)b * HW, y[HD_SH_COEFFS];
             if (hd_sh_fit_adjoint(N, w, HW, HD_SOURCE_PRIOR, g[k], y) != HD_OK) continue; /* prepare solved it */

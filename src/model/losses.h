@@ -68,13 +68,16 @@ typedef struct hd_losses {
     int shading_mean_pair; /* the anchor on the mean of the pair's two mean shadings, not on each image */
     int light_from_image; /* l_hat fitted to the image's luminance instead of to S, scaled so that its
                            * shading's mean over the mask is shading_mean (not the paper's) */
+    int light_from_face; /* l_hat = the face's own light of S on N, as the relighting rule fits it
+                          * (hd_losses_light_from_face; not the paper's) */
     int prior_predicted; /* the shading prior's target on the predicted normals N (detached) instead of
                           * the coarse N_bar (stage 2; --shading-prior-normals predicted) */
     float *skin;       /* (HW) or NULL: 1 on skin, 0 on the eyes, brows and inner lips, where the photo's
                         * own light is fitted without them (hd_losses_fit_skin_only) */
     float *fit_weight; /* (HW) scratch: mask times skin */
-    float *fit_layout; /* (HW) or NULL (fit_pair off): the weight of each texel in the face's own light
-                        * fit, the skin times the lower face's weight (hd_losses_fit_pair_on) */
+    int fit_pair;      /* the term fit_pair is on (hd_losses_fit_pair_on) */
+    float *fit_layout; /* (HW) or NULL (neither fit_pair nor light_from_face): the weight of each texel
+                        * in the face's own light fit, the skin times the lower face's weight */
     float *fit_light;  /* (B, 9) f: the face's own light of each image of a related pair */
     float *fit_prior;  /* (B, 9) the lobe each f is pulled toward, detached (held by gradient checks) */
     float *fit_mask;   /* (HW) scratch: the fit's weight for one image, fit_layout on its mask */
@@ -95,6 +98,12 @@ hd_status hd_losses_fit_skin_only(hd_losses *L);
  * light fit, the layout hd_face_light uses (the face regions out, the face below the nose at
  * HD_FIT_LOWER_FACE). Needs a square network (the aligned texture space). */
 hd_status hd_losses_fit_pair_on(hd_losses *L);
+
+/* l_hat of L_l becomes the face's own light the relighting rule uses (hd_face_light: the fit of S
+ * on the stage's normals over the skin, the face below the nose at HD_FIT_LOWER_FACE, pulled toward
+ * the lobe with HD_SOURCE_PRIOR) instead of the plain least-squares fit over the mask: L-Net then
+ * learns the light the tool applies. Detached like the paper's l_hat. Needs a square network. */
+hd_status hd_losses_light_from_face(hd_losses *L);
 
 /* After hd_net_forward: computes s(N, l), the render m*A*s(N, l) and l_hat (from the coarse or the
  * predicted normals; the batch's ground-truth light where it has one) that the terms below share. Fails (HD_ERR_NUMERIC) if l_hat is not finite. */

@@ -180,6 +180,7 @@ static hd_status start_trainer(const hd_train_options *o, run_start *rs, hd_trai
     t->losses.prior_predicted = o->shading_prior_predicted;
     if (o->light_fit_skin && (s = hd_losses_fit_skin_only(&t->losses)) != HD_OK) return s;
     if (o->weights.w[HD_LOSS_FIT_PAIR] > 0 && (s = hd_losses_fit_pair_on(&t->losses)) != HD_OK) return s;
+    if (o->light_target_face && (s = hd_losses_light_from_face(&t->losses)) != HD_OK) return s;
     t->shading_prior_iters = o->shading_prior_iters;
     t->stage = o->stage;
     t->lr = o->lr > 0 ? o->lr : o->stage == HD_TRAIN_STAGE_1 ? HD_TRAIN_DEFAULT_LR_STAGE1 : HD_TRAIN_DEFAULT_LR_STAGE2;

@@ -47,6 +47,7 @@ typedef struct hd_train_options {
     int prior_normals_gt;  /* N_bar from NAME.normal_gt.png instead of NAME.normal.png (the paper's "-ft") */
     int light_target_gt;   /* l_hat = NAME.light.txt where there is one, instead of the least-squares fit */
     int light_target_image; /* l_hat fitted to the image's luminance, not to S (not the paper's) */
+    int light_target_face; /* l_hat = the relighting rule's face light of S (hd_losses_light_from_face) */
     int shading_prior_predicted; /* the shading prior on the predicted normals, not N_bar (stage 2) */
     int light_fit_skin;    /* the photo's own light fitted to the skin alone (hd_losses_fit_skin_only) */
     float shading_mean;    /* c of the scale anchor (HD_SHADING_MEAN_DEFAULT) */
