@@ -5,7 +5,8 @@
 # own light gives the input exactly (self 0), a grey light keeps the colours (chroma <= 10) and the
 # change has no seam (seam <= 1.5), whatever the model; the paper's rule fails self. `--pairs` on a
 # small synthetic set: the exact decomposition is far closer to the truth than the input left
-# unchanged. Coloured lights: a 27-number light file, --dir with --colour, an environment map.
+# unchanged. Coloured lights: a 27-number light file, --dir with --colour (warmer than the grey
+# light in the face), an environment map.
 # `decompose` on a photo writes the full-resolution maps in the photo's frame.
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -73,6 +74,17 @@ awk 'BEGIN { for (c = 0; c < 3; c++) for (k = 0; k < 9; k++) print (k == 0 ? 2.5
 expect 0 "$HDNET" relight "$photo" -m m.safetensors --light rgb.txt -o rgb.pfm
 expect 0 "$HDNET" relight "$photo" -m m.safetensors --dir 30,10 --colour 1,0.8,0.6 -o warm.png
 exists warm.png
+# the warm light's output is warmer than the grey one's in the face: over the pixels where the two
+# differ (outside the face both keep the photo), red minus blue is larger under the warm light
+expect 0 "$HDNET" relight "$photo" -m m.safetensors --dir 30,10 --colour 1,0.8,0.6 -o warm.pfm
+expect 0 "$HDNET" relight "$photo" -m m.safetensors --dir 30,10 -o grey.pfm
+pfm_pixels() { od -An -v -f -w12 -j "$(head -n 3 "$1" | wc -c)" "$1"; } # one pixel (R G B) a line
+pfm_pixels warm.pfm >warm.txt
+pfm_pixels grey.pfm >grey.txt
+warmth=$(paste warm.txt grey.txt | awk '$1 != $4 || $2 != $5 || $3 != $6 { n++; w += $1 - $3; g += $4 - $6 }
+    END { if (n) printf "%d %.4f %.4f\n", n, w / n, g / n; else print 0, 0, 0 }')
+echo "$warmth" | awk '{ exit !($1 > 1000 && $2 > $3 + 0.05) }' ||
+    fail "the warm light is not warmer than the grey one in the face (pixels, mean R - B warm, grey: $warmth)"
 {
     printf 'PF\n8 4\n-1.0\n'
     i=0
