@@ -70,6 +70,9 @@ expect_saying 2 "--threads wants 0..1024" "$HDNET" relight x.png --preset 1 -o y
 expect_saying 2 "--min-score must be in (0, 1]" "$HDNET" delight x.png -o y.png --min-score 0
 expect_saying 2 "-q takes no value" "$HDNET" light --preset 1 -o l.txt -q1
 expect_saying 2 "--preset all writes seven images" "$HDNET" relight x.png --preset all -o all.png
+# one builder of a light from --dir/--preset/--env (tools/light_words.c): relight checks as light does
+expect_saying 2 "elevation must be in -90..90" "$HDNET" relight x.png --dir 0,100 -o y.png
+expect_saying 2 "elevation must be in -90..90" "$HDNET" light --dir 0,100 -o l.txt
 [ ! -e all.png ] || fail "relight --preset all -o all.png made something named all.png"
 expect_saying 2 "names a file" "$HDNET" relight a.png b.png --preset 1 -o out.png
 [ ! -e out.png ] || fail "two inputs with -o out.png made something named out.png"

@@ -8,6 +8,7 @@
 #include <string.h>
 #include "test.h"
 #include "source_dir.h"
+#include "light/light.h"
 #include "mesh/mesh.h"
 #include "model/hdnet_net.h"
 #include "model/losses.h"

@@ -14,8 +14,6 @@
 
 enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
 
-#define CLI_VERSION "0.1.0"
-
 /* A registered command (main.c's table, from the CLI_COMMAND lines). */
 typedef struct cli_command {
     const char *name;

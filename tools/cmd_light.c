@@ -6,6 +6,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include "cli.h"
+#include "light_words.h"
 
 CLI_COMMAND("light", cmd_light, "make a light file (direction or preset) or show one on a sphere")
 
@@ -90,14 +91,11 @@ int cmd_light(int argc, char **argv)
 
     const int modes = (dir.count > 0) + (preset != INT_MIN) + (show != NULL) + presets + (env != NULL);
     if (modes != 1) return cli_usage_error(&spec, "give exactly one of --dir, --preset, --env, --show and --presets");
-    if (colour.count && (dir.count == 0 || colour.count != 3)) return cli_usage_error(&spec, "--colour wants R,G,B and goes with --dir");
-    for (int c = 0; c < colour.count; c++)
-        if (!(colour.v[c] >= 0 && isfinite(colour.v[c]))) return cli_usage_error(&spec, "--colour factors are >= 0");
-    if (rotate != 0.0f && !env) return cli_usage_error(&spec, "--rotate goes with --env");
+    const cli_light_words words = cli_light_words_of(&dir, intensity, ambient, &colour, preset, env, rotate);
+    char why[200];
+    if (cli_light_words_check(&words, why, sizeof why) != HD_OK) return cli_usage_error(&spec, "%s", why);
     if (!out) return cli_usage_error(&spec, "-o is required");
     if (size < 1 || size > 4096) return cli_usage_error(&spec, "--size must be in 1..4096, got %d", size);
-    if (dir.count == 0 && (!isnan(intensity) || !isnan(ambient)))
-        return cli_usage_error(&spec, "--intensity and --ambient go with --dir");
     if ((show || presets) && preview)
         return cli_usage_error(&spec, "--preview goes with --dir or --preset (--show and --presets write -o)");
     if (presets) {
@@ -113,29 +111,8 @@ int cmd_light(int argc, char **argv)
         if (rc == CLI_EXIT_OK && !quiet) printf("wrote %s\n", out);
         return rc;
     }
-    if (dir.count > 0) {
-        if (dir.count != 2) return cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
-        if (dir.v[1] < -90.0f || dir.v[1] > 90.0f)
-            return cli_usage_error(&spec, "the elevation must be in -90..90 degrees, got %g", (double)dir.v[1]);
-        if (isnan(intensity)) intensity = HD_LIGHT_DEFAULT_INTENSITY;
-        if (isnan(ambient)) ambient = HD_LIGHT_DEFAULT_AMBIENT;
-        if (intensity < 0.0f || ambient < 0.0f)
-            return cli_usage_error(&spec, "--intensity and --ambient must not be negative");
-        const float white[3] = {1, 1, 1};
-        hd_light_rgb_from_direction(dir.v[0], dir.v[1], intensity, ambient, colour.count ? colour.v : white, &light);
-    } else if (env) {
-        hd_image map = {0};
-        hd_status st = hd_image_read_as(env, 3, &map);
-        if (st == HD_OK) st = hd_light_from_envmap(&map, rotate, &light);
-        hd_image_free(&map);
-        if (st != HD_OK) return cli_report("light");
-    } else {
-        if (preset < 0 || preset >= HD_LIGHT_PRESETS)
-            return cli_usage_error(&spec, "--preset must be in 0..%d, got %d", HD_LIGHT_PRESETS - 1, preset);
-        float grey[HD_SH_COEFFS];
-        if (hd_light_preset(preset, grey) != HD_OK) return cli_report("light");
-        hd_light_rgb_from_grey(grey, &light);
-    }
+    if (cli_light_from_words(&words, &light, why, sizeof why) != HD_OK)
+        return why[0] ? cli_usage_error(&spec, "%s", why) : cli_report("light");
     if (hd_light_write_rgb(out, &light) != HD_OK) return cli_report("light");
     if (!quiet) printf("wrote %s\n", out);
     if (preview) {

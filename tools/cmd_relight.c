@@ -11,6 +11,7 @@
 #include "apply_cli.h"
 #include "cli.h"
 #include "hdnet_tool.h"
+#include "light_words.h"
 #include "video_cli.h"
 
 CLI_COMMAND("relight", cmd_relight, "relight the faces of a photo (or an aligned face) under a light file, a preset or a direction")
@@ -136,25 +137,20 @@ int cmd_relight(int argc, char **argv)
         cli_usage_error(&spec, "give exactly one of --light, --preset, --dir and --env");
         goto done;
     }
-    if (colour.count && (dir.count == 0 || colour.count != 3)) {
-        cli_usage_error(&spec, "--colour wants R,G,B and goes with --dir");
-        goto done;
-    }
-    for (int c = 0; c < colour.count; c++)
-        if (!(colour.v[c] >= 0 && isfinite(colour.v[c]))) {
-            cli_usage_error(&spec, "--colour factors are >= 0");
+    int preset_k = INT_MIN;
+    if (preset && strcmp(preset, "all") != 0) {
+        char *end = NULL;
+        long k = strtol(preset, &end, 10);
+        if (end == preset || *end) {
+            cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
             goto done;
         }
-    if (rotate != 0.0f && !env_path) {
-        cli_usage_error(&spec, "--rotate goes with --env");
-        goto done;
+        preset_k = k < -1 ? -1 : k > HD_LIGHT_PRESETS ? HD_LIGHT_PRESETS : (int)k;
     }
-    if (dir.count == 1) {
-        cli_usage_error(&spec, "--dir wants two numbers AZ,EL");
-        goto done;
-    }
-    if ((!isnan(intensity) || !isnan(ambient)) && dir.count == 0) {
-        cli_usage_error(&spec, "--intensity and --ambient go with --dir");
+    const cli_light_words words = cli_light_words_of(&dir, intensity, ambient, &colour, preset_k, env_path, rotate);
+    char why[200];
+    if (cli_light_words_check(&words, why, sizeof why) != HD_OK) {
+        cli_usage_error(&spec, "%s", why);
         goto done;
     }
     if (!out) {
@@ -166,36 +162,13 @@ int cmd_relight(int argc, char **argv)
         goto done;
     }
     run.apply.request.count = 1;
-    if (preset) {
-        char *end = NULL;
-        long k = strtol(preset, &end, 10);
-        if (strcmp(preset, "all") == 0) {
-            run.all = 1;
-            run.apply.request.count = HD_LIGHT_PRESETS;
-            for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
-        } else if (end == preset || *end || k < 0 || k >= HD_LIGHT_PRESETS) {
-            cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
-            goto done;
-        } else {
-            hd_light_preset((int)k, l);
-            hd_light_rgb_from_grey(l, &lights[0]);
-        }
-    } else if (dir.count) {
-        const float white[3] = {1, 1, 1};
-        hd_light_rgb_from_direction(dir.v[0], dir.v[1], isnan(intensity) ? HD_LIGHT_DEFAULT_INTENSITY : intensity,
-                                    isnan(ambient) ? HD_LIGHT_DEFAULT_AMBIENT : ambient,
-                                    colour.count ? colour.v : white, &lights[0]);
-    } else if (env_path) {
-        hd_image map = {0};
-        hd_status st = hd_image_read_as(env_path, 3, &map);
-        if (st == HD_OK) st = hd_light_from_envmap(&map, rotate, &lights[0]);
-        hd_image_free(&map);
-        if (st != HD_OK) {
-            rc = cli_report("relight");
-            goto done;
-        }
-    } else if (hd_light_read_rgb(light_path, &lights[0]) != HD_OK) {
-        rc = cli_report("relight");
+    if (preset && preset_k == INT_MIN) { /* --preset all */
+        run.all = 1;
+        run.apply.request.count = HD_LIGHT_PRESETS;
+        for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
+    } else if (light_path ? hd_light_read_rgb(light_path, &lights[0]) != HD_OK
+                          : cli_light_from_words(&words, &lights[0], why, sizeof why) != HD_OK) {
+        rc = light_path || !why[0] ? cli_report("relight") : cli_usage_error(&spec, "%s", why);
         goto done;
     }
     for (int c = 0; c < 3; c++)

@@ -88,7 +88,7 @@ int main(int argc, char **argv)
         return CLI_EXIT_OK;
     }
     if (strcmp(name, "--version") == 0) {
-        printf("hdnet " CLI_VERSION "\n");
+        printf("hdnet %s\n", hd_version());
         return CLI_EXIT_OK;
     }
     /* generated documentation, not listed: `make install` writes the man page and completion */

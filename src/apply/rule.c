@@ -69,14 +69,16 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
         return hd_fail(HD_ERR_ARG,
                        "face light: the decomposition's shading and normals are not square maps of one size");
     if (mask && (!mask->data || mask->channels != 1)) return hd_fail(HD_ERR_ARG, "face light: a mask has 1 channel");
-    hd_image skin = {0}, weight = {0};
-    hd_status st = skin_at(mask, size, &skin);
-    if (st == HD_OK) st = hd_face_fit_weight_uv(size, HD_FIT_LOWER_FACE, &weight);
-    for (size_t p = 0; st == HD_OK && p < (size_t)size * size; p++) weight.data[p] *= skin.data[p];
+    hd_image m = {0}, layout = {0};
+    float *weight = hd_malloc((size_t)size * size * sizeof(float)), lobe[HD_SH_COEFFS];
+    hd_status st = weight ? HD_OK : HD_ERR_NOMEM;
+    if (st == HD_OK && mask) st = hd_image_resize(mask, size, size, &m);
+    if (st == HD_OK) st = hd_face_light_layout(size, &layout);
     if (st == HD_OK)
-        st = hd_sh_fit_toward_lobe(d->normal.data, d->shading.data, weight.data, size * size, HD_SOURCE_PRIOR, light);
-    hd_image_free(&skin);
-    hd_image_free(&weight);
+        st = hd_face_light_fit(d->normal.data, d->shading.data, layout.data, m.data, size * size, weight, lobe, 0, light);
+    hd_image_free(&m);
+    hd_image_free(&layout);
+    free(weight);
     return st;
 }
 

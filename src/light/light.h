@@ -13,6 +13,9 @@
 #define HD_SH_C3 0.2477079561003757f /* pi/4     * 0.3153915653 (l = 2, 3z^2-1) */
 #define HD_SH_C4 0.4290427654048917f /* pi/4     * 0.5462742153 (l = 2, x^2-y^2) */
 
+/* s(n) = sum_k l_k b_k(n) (hd_sh_shade) and its gradient wrt the normal (SPEC section 2 basis). */
+float hd_sh_shade_grad(const float light[HD_SH_COEFFS], const float n[3], float dn[3]);
+
 /* The band (0, 1 or 2) of coefficient k. */
 static inline int hd_sh_band(int k) { return k == 0 ? 0 : k < 4 ? 1 : 2; }
 

@@ -29,6 +29,20 @@ float hd_sh_shade(const float light[HD_SH_COEFFS], const float normal[3])
     return s;
 }
 
+/* SPEC section 2 with X = x, Y = -z, Z = y:
+ * s = l0 c0 - l1 c1 z + l2 c1 y + l3 c1 x - l4 c2 z x - l5 c2 z y + l6 c3 (3 y^2 - 1) + l7 c2 x y
+ *     + l8 c4 (x^2 - z^2) */
+float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3])
+{
+    const float c0 = HD_SH_C0, c1 = HD_SH_C1, c2 = HD_SH_C2, c3 = HD_SH_C3, c4 = HD_SH_C4; /* light.h's basis */
+    float x = n[0], y = n[1], z = n[2];
+    dn[0] = l[3] * c1 - l[4] * c2 * z + l[7] * c2 * y + 2 * l[8] * c4 * x;
+    dn[1] = l[2] * c1 - l[5] * c2 * z + 6 * l[6] * c3 * y + l[7] * c2 * x;
+    dn[2] = -l[1] * c1 - l[4] * c2 * x - l[5] * c2 * y - 2 * l[8] * c4 * z;
+    return l[0] * c0 - l[1] * c1 * z + l[2] * c1 * y + l[3] * c1 * x - l[4] * c2 * z * x - l[5] * c2 * z * y +
+           l[6] * c3 * (3 * y * y - 1) + l[7] * c2 * x * y + l[8] * c4 * (x * x - z * z);
+}
+
 void hd_sh_shading_map(const float *normal, const float *mask, int npix,
                        const float light[HD_SH_COEFFS], float *shading)
 {

@@ -57,6 +57,20 @@ hd_status hd_face_regions_uv(int size, hd_image *regions);
  * nose and the jaw, the light does not: the fit leans on the face above the nose. */
 #define HD_FIT_LOWER_FACE 0.25f
 hd_status hd_face_fit_weight_uv(int size, float lower, hd_image *weight);
+/* The face's own light (face_light.c). hd_face_light_layout: the weight of each texel of a
+ * size x size aligned texture in the fit, 1 plane: hd_face_fit_weight_uv (HD_FIT_LOWER_FACE), 0 in
+ * the regions the model does not explain (hd_face_regions_uv). hd_face_light_fit: the light of
+ * shading on unit normals (npix texels; normal in 3 planes) weighted by layout where mask > 0.5
+ * (mask NULL: everywhere; the weights left in weight, npix floats of scratch), pulled toward the
+ * lobe fit of the same weighted shading (hd_sh_fit_lobe, written to lobe; with hold_lobe, lobe is
+ * read as given) with HD_SOURCE_PRIOR (hd_sh_fit_toward). The relighting rule's source light
+ * (hd_face_light) and the training's --light-target face and fit-pair term are this one fit.
+ * hd_face_light_weight: the fit's weights alone (the fit-pair term's backward needs them again). */
+hd_status hd_face_light_layout(int size, hd_image *layout);
+void hd_face_light_weight(const float *layout, const float *mask, int npix, float *weight);
+hd_status hd_face_light_fit(const float *normal, const float *shading, const float *layout, const float *mask,
+                            int npix, float *weight, float lobe[HD_SH_COEFFS], int hold_lobe,
+                            float light[HD_SH_COEFFS]);
 /* The centres of the two eyes (the means of their contour landmarks), in the landmarks' frame. */
 void hd_face_eye_centres(const float (*landmarks)[3], float centres[2][2]);
 

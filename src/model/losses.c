@@ -95,20 +95,17 @@ static hd_status fit_layout_on(hd_losses *L, const char *who)
     if (net->H != net->W) return hd_fail(HD_ERR_ARG, "%s needs a square network (%d x %d)", who, net->W, net->H);
     if (L->fit_layout) return HD_OK;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
-    hd_image regions = {0}, lower = {0};
-    hd_status st = hd_face_regions_uv(net->W, &regions);
-    if (st == HD_OK) st = hd_face_fit_weight_uv(net->W, HD_FIT_LOWER_FACE, &lower);
-    float *layout = st == HD_OK ? hd_malloc(HW * sizeof(float)) : NULL, *mask = hd_malloc(HW * sizeof(float));
+    hd_image layout = {0};
+    hd_status st = hd_face_light_layout(net->W, &layout);
+    float *mask = hd_malloc(HW * sizeof(float));
     float *light = hd_calloc(B * HD_SH_COEFFS, sizeof(float)), *prior = hd_calloc(B * HD_SH_COEFFS, sizeof(float));
-    if (st == HD_OK && (!layout || !mask || !light || !prior)) st = HD_ERR_NOMEM;
-    for (size_t p = 0; st == HD_OK && p < HW; p++) layout[p] = regions.data[p] <= 0.5f ? lower.data[p] : 0.0f;
-    hd_image_free(&regions);
-    hd_image_free(&lower);
+    if (st == HD_OK && (!mask || !light || !prior)) st = HD_ERR_NOMEM;
     if (st != HD_OK) {
-        free(layout), free(mask), free(light), free(prior);
+        hd_image_free(&layout);
+        free(mask), free(light), free(prior);
         return st;
     }
-    L->fit_layout = layout, L->fit_mask = mask, L->fit_light = light, L->fit_prior = prior;
+    L->fit_layout = layout.data, L->fit_mask = mask, L->fit_light = light, L->fit_prior = prior;
     return HD_OK;
 }
 
@@ -124,20 +121,6 @@ hd_status hd_losses_light_from_face(hd_losses *L)
     hd_status st = fit_layout_on(L, "--light-target face");
     if (st == HD_OK) L->light_from_face = 1;
     return st;
-}
-
-/* SPEC section 2 with X = x, Y = -z, Z = y:
- * s = l0 c0 - l1 c1 z + l2 c1 y + l3 c1 x - l4 c2 z x - l5 c2 z y + l6 c3 (3 y^2 - 1) + l7 c2 x y
- *     + l8 c4 (x^2 - z^2) */
-float hd_sh_shade_grad(const float l[HD_SH_COEFFS], const float n[3], float dn[3])
-{
-    const float c0 = HD_SH_C0, c1 = HD_SH_C1, c2 = HD_SH_C2, c3 = HD_SH_C3, c4 = HD_SH_C4; /* light.h's basis */
-    float x = n[0], y = n[1], z = n[2];
-    dn[0] = l[3] * c1 - l[4] * c2 * z + l[7] * c2 * y + 2 * l[8] * c4 * x;
-    dn[1] = l[2] * c1 - l[5] * c2 * z + 6 * l[6] * c3 * y + l[7] * c2 * x;
-    dn[2] = -l[1] * c1 - l[4] * c2 * x - l[5] * c2 * y - 2 * l[8] * c4 * z;
-    return l[0] * c0 - l[1] * c1 * z + l[2] * c1 * y + l[3] * c1 * x - l[4] * c2 * z * x - l[5] * c2 * z * y +
-           l[6] * c3 * (3 * y * y - 1) + l[7] * c2 * x * y + l[8] * c4 * (x * x - z * z);
 }
 
 /* The photo's own light l_img of image b (--light-target image's l_hat, the shading prior's light):
@@ -241,14 +224,20 @@ static int related_pair(const hd_losses *L, int p, float r[HD_SH_COEFFS])
     return 1;
 }
 
-/* The weight of image b's texels in its own light fit: the layout where the mask is > 0.5 (the
- * rule's skin), in L->fit_mask. */
+/* The weight of image b's texels in its own light fit (the rule's skin), in L->fit_mask. */
 static const float *face_fit_weight(hd_losses *L, int b)
 {
-    size_t HW = (size_t)L->net->H * L->net->W;
-    const float *m = L->batch->mask + (size_t)b * HW;
-    for (size_t p = 0; p < HW; p++) L->fit_mask[p] = m[p] > 0.5f ? L->fit_layout[p] : 0.0f;
+    int HW = L->net->H * L->net->W;
+    hd_face_light_weight(L->fit_layout, L->batch->mask + (size_t)b * HW, HW, L->fit_mask);
     return L->fit_mask;
+}
+
+/* Image b's own light from shading S on normals N (hd_face_light_fit over the rule's skin: the
+ * layout where the mask is > 0.5, weights in L->fit_mask) into f; its lobe into lobe (read with hold). */
+static hd_status face_light_of(hd_losses *L, int b, const float *N, const float *S, float *lobe, int hold, float *f)
+{
+    size_t HW = (size_t)L->net->H * L->net->W;
+    return hd_face_light_fit(N, S, L->fit_layout, L->batch->mask + (size_t)b * HW, (int)HW, L->fit_mask, lobe, hold, f);
 }
 
 /* f of both images of every related pair (fit_pair on): the lobe of S on N (detached: kept as it
@@ -262,10 +251,9 @@ static hd_status fit_pair_lights(hd_losses *L)
         if (!related_pair(L, p, r)) continue;
         for (int k = 0; k < 2; k++) {
             int b = 2 * p + k;
-            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW, *w = face_fit_weight(L, b);
+            const float *N = net->normal + (size_t)b * 3 * HW, *S = net->shading + (size_t)b * HW;
             float *prior = L->fit_prior + (size_t)b * HD_SH_COEFFS, *f = L->fit_light + (size_t)b * HD_SH_COEFFS;
-            hd_status st = L->hold_light_hat ? HD_OK : hd_sh_fit_lobe(N, S, w, HW, prior);
-            if (st == HD_OK) st = hd_sh_fit_toward(N, S, w, HW, prior, HD_SOURCE_PRIOR, f);
+            hd_status st = face_light_of(L, b, N, S, prior, L->hold_light_hat, f);
             if (st != HD_OK) {
                 char why[300];
                 snprintf(why, sizeof why, "%s", hd_error());
@@ -301,8 +289,9 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
                                ? batch->coarse_normal + (size_t)b * 3 * HW : N;
         float *lh = L->light_hat + (size_t)b * HD_SH_COEFFS;
         const float *S = net->shading + (size_t)b * HW;
+        float lobe[HD_SH_COEFFS];
         hd_status st = L->light_from_image  ? image_light(L, b, src, lh)
-                       : L->light_from_face ? hd_sh_fit_toward_lobe(src, S, face_fit_weight(L, b), HW, HD_SOURCE_PRIOR, lh)
+                       : L->light_from_face ? face_light_of(L, b, src, S, lobe, 0, lh)
                                             : hd_sh_fit(src, S, m, HW, lh);
         if (st != HD_OK) return st;
         for (int k = 0; k < HD_SH_COEFFS; k++)

@@ -146,7 +146,4 @@ double hd_loss_discriminator(hd_losses *L, float scale);
  * its gradient into the activation gradients when grad is nonzero. */
 double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[HD_LOSS_TERMS], int grad);
 
-/* s(n) = sum_k l_k b_k(n) and its gradient wrt the normal (SPEC section 2 basis). */
-float hd_sh_shade_grad(const float light[HD_SH_COEFFS], const float n[3], float dn[3]);
-
 #endif /* HD_LOSSES_H */

@@ -166,7 +166,9 @@ static enum MHD_Result health(struct MHD_Connection *c, serve_server *s)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "status", "ok");
-    cJSON_AddStringToObject(j, "version", "hdnet 0.1.0");
+    char version[64];
+    snprintf(version, sizeof version, "hdnet %s", hd_version());
+    cJSON_AddStringToObject(j, "version", version);
     cJSON *model = cJSON_AddObjectToObject(j, "model");
     cJSON_AddNumberToObject(model, "size", hd_model_size(s->engine.model));
     cJSON_AddNumberToObject(model, "width", hd_model_width(s->engine.model));
