@@ -13,7 +13,7 @@
 #include "model/unet.h"            /* Common-Net, for the benchmarks */
 #include "model/hdnet_net.h"       /* HD-Net, for the benchmarks and `hdnet info` */
 #include "model/checkpoint.h"      /* the checkpoint format, for `hdnet init` */
-#include "model/train.h"           /* training: `hdnet train` */
+#include "train/train.h"           /* training: `hdnet train` */
 #include "align/face_detect.h"     /* the detector, for `hdnet detect` */
 #include "align/face_landmarks.h"  /* the face mesh, for `hdnet detect` */
 #include "apply/apply.h"           /* the relighting rule's pieces, for `hdnet eval --sheets` */

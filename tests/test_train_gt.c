@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
-#include "model/train.h"
+#include "train/train.h"
 
 /* A pair batch of smooth random-looking faces: a sphere of normals, a mask disc, a lit albedo. */
 static void fill_batch(hd_pair_batch *b)

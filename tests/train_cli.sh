@@ -136,7 +136,7 @@ expect 2 $H train data -o x $T --iters 2 --shading-prior-iters -1
 expect 2 $H train data -o y --shading-mean 0
 expect 2 $H train data -o y --shading-mean-over subject
 # on the pair: where both images' mean shadings lie on one side of c (c = 50), the pair's term
-# and gradient equal the per-image ones, so the whole first two rows agree (test_model checks
+# and gradient equal the per-image ones, so the whole first two rows agree (test_train checks
 # the case between them); the shading prior is off here (its column, still logged, differs: the
 # pair also scales its target once per pair)
 expect 0 $H train data -o imageanchor $T --iters 2 --every 2 --shading-mean 50 --w-shading-prior 0

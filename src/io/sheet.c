@@ -3,7 +3,7 @@
  * picture as stored, a normal map as (n + 1) / 2, a shading map as s / 2), and the canvas is
  * written as an 8-bit PNG. Only images: used by apply's sheets (a decomposition's row, the before /
  * after sheet of a photo), `hdnet decompose`, `hdnet relight --sheet` and the trainer's sample
- * sheets (model/train_log.c). */
+ * sheets (train/train_log.c). */
 #include <string.h>
 #include "core/core.h"
 

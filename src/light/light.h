@@ -36,7 +36,7 @@ hd_status hd_sh_fit_toward_lobe(const float *normal, const float *shading, const
 
 /* The adjoint of hd_sh_fit_toward with the prior held: y = M^-1 g, M = sum_p m_p b(n_p) b(n_p)^T +
  * (ridge + strength * sum_p m_p) I the fit's own system, so that for the fit l, dl . g = y . dr
- * - y . dM l (the training term fit_pair's backward; src/model/losses.c). No pixel: y = 0. */
+ * - y . dM l (the training term fit_pair's backward; src/train/losses.c). No pixel: y = 0. */
 hd_status hd_sh_fit_adjoint(const float *normal, const float *mask, int npix, float strength,
                             const float g[HD_SH_COEFFS], float y[HD_SH_COEFFS]);
 

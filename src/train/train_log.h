@@ -4,7 +4,7 @@
 #define HD_TRAIN_LOG_H
 
 #include <stdio.h>
-#include "model/trainer.h"
+#include "train/trainer.h"
 
 #define HD_TRAIN_LOG_COLS (HD_LOSS_TERMS + 2)
 

@@ -6,7 +6,7 @@
 #define HD_TRAIN_H
 
 #include <signal.h>
-#include "model/trainer.h"
+#include "train/trainer.h"
 
 /* Why a run ended. */
 typedef enum hd_train_end {

@@ -5,7 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "model/trainer.h"
+#include "train/trainer.h"
 
 #define HD_INIT_STREAM 1
 

@@ -5,8 +5,8 @@
 #define HD_TRAINER_H
 
 #include "model/hdnet_net.h"
-#include "model/losses.h"
-#include "model/train_data.h"
+#include "train/losses.h"
+#include "train/train_data.h"
 
 #define HD_ADAM_BETA1 0.9f
 #define HD_ADAM_BETA2 0.999f

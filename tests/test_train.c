@@ -9,12 +9,13 @@
 #include "test.h"
 #include "source_dir.h"
 #include "light/light.h"
+#include "light/light.h"
 #include "mesh/mesh.h"
 #include "model/hdnet_net.h"
-#include "model/losses.h"
-#include "model/train.h"
+#include "train/losses.h"
+#include "train/train.h"
 #include "model/checkpoint.h"
-#include "model/train_log.h"
+#include "train/train_log.h"
 
 /* ---- a synthetic pair: one smooth albedo on a sphere-like face under two lights */
 

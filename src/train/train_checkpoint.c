@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "model/trainer.h"
+#include "train/trainer.h"
 #include "model/checkpoint.h"
 
 static void trainer_meta(const hd_trainer *t, hd_meta *m)

@@ -10,7 +10,7 @@
 #define HD_LOSSES_H
 
 #include "model/hdnet_net.h"
-#include "model/train_data.h"
+#include "train/train_data.h"
 
 /* The scale anchor's target mean shading over the face: the median of the synthetic set's
  * (0.79 over 200 held-out images; docs/training.md). */

@@ -6,7 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "model/train_data.h"
+#include "train/train_data.h"
 #include "light/light.h"
 
 #define HD_DATA_STREAM 0x5eedda7aULL

@@ -5,7 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "model/train_log.h"
+#include "train/train_log.h"
 #include "light/light.h"
 
 static hd_status history_push(hd_train_log *h, const float *row)

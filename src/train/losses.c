@@ -5,7 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "model/losses.h"
+#include "train/losses.h"
 #include "light/light.h"
 #include "mesh/mesh.h"
 

@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include "model/train.h"
+#include "train/train.h"
 #include "model/checkpoint.h"
-#include "model/train_log.h"
+#include "train/train_log.h"
 
 int hd_train_default_micro(const hd_net_config *cfg, int pairs)
 {
