@@ -642,6 +642,22 @@ static void test_mirror(void)
     for (int k = 0; k < HD_SH_COEFFS; k++) CHECK_NEAR(right[k], left[k], 1e-6);
 }
 
+/* ---- the SH shading gradient against finite differences of hd_sh_shade */
+
+static void test_shade_grad(void)
+{
+    float l[HD_SH_COEFFS] = {1.08f, -0.46f, 0.03f, 0.68f, -0.36f, 0.05f, -0.23f, -0.08f, 0.29f};
+    float n[3] = {0.3f, -0.5f, 0.7f}, g[3];
+    float s = hd_sh_shade_grad(l, n, g);
+    CHECK_NEAR(s, hd_sh_shade(l, n), 1e-5);
+    for (int k = 0; k < 3; k++) {
+        float a[3] = {n[0], n[1], n[2]}, b[3] = {n[0], n[1], n[2]};
+        a[k] += 1e-3f;
+        b[k] -= 1e-3f;
+        CHECK_NEAR(g[k], (hd_sh_shade(l, a) - hd_sh_shade(l, b)) / 2e-3f, 2e-3);
+    }
+}
+
 int main(void)
 {
     test_vectors();
@@ -653,6 +669,7 @@ int main(void)
     test_mirror();
     test_light_files();
     test_presets();
+    test_shade_grad();
 #ifndef HD_TEST_LIGHT_NO_IMAGES
     test_sphere();
 #endif
