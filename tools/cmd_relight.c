@@ -70,13 +70,57 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
     return st;
 }
 
+/* The command line of `hdnet relight`: what the option table fills. */
+typedef struct relight_args {
+    const char *model_path, *light_path, *preset, *out, *mask_path, *sheet_path, *env_path, *source;
+    cli_opt_floats dir, colour;
+    float intensity, ambient, rotate, min_score; /* intensity, ambient NAN: the defaults */
+    int keep, no_keep, aligned, threads, quiet;
+} relight_args;
+
+/* The checks of the command line, and the target lights (one, or the seven presets) into lights
+ * and run's request: 0, or the exit code (a usage error, or a light file or map that failed). */
+static int relight_check(const cli_cmd_spec *spec, const relight_args *a, relight_run *run,
+                         hd_light_rgb lights[HD_LIGHT_PRESETS])
+{
+    int code;
+    float l[HD_SH_COEFFS];
+    const int modes = (a->light_path != NULL) + (a->preset != NULL) + (a->dir.count > 0) + (a->env_path != NULL);
+    if ((code = cli_opts_common(spec, a->threads, a->min_score))) return code;
+    if (modes != 1) return cli_usage_error(spec, "give exactly one of --light, --preset, --dir and --env");
+    int preset_k = INT_MIN;
+    if (a->preset && strcmp(a->preset, "all") != 0) {
+        char *end = NULL;
+        long k = strtol(a->preset, &end, 10);
+        if (end == a->preset || *end) return cli_usage_error(spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, a->preset);
+        preset_k = k < -1 ? -1 : k > HD_LIGHT_PRESETS ? HD_LIGHT_PRESETS : (int)k;
+    }
+    const cli_light_words words = cli_light_words_of(&a->dir, a->intensity, a->ambient, &a->colour, preset_k, a->env_path, a->rotate);
+    char why[200];
+    if (cli_light_words_check(&words, why, sizeof why) != HD_OK) return cli_usage_error(spec, "%s", why);
+    if (!a->out) return cli_usage_error(spec, "-o is required");
+    if (a->keep && a->no_keep) return cli_usage_error(spec, "--keep-brightness and --no-keep-brightness exclude each other");
+    run->apply.request.count = 1;
+    if (a->preset && preset_k == INT_MIN) { /* --preset all */
+        run->all = 1;
+        run->apply.request.count = HD_LIGHT_PRESETS;
+        for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
+    } else if (a->light_path ? hd_light_read_rgb(a->light_path, &lights[0]) != HD_OK
+                          : cli_light_from_words(&words, &lights[0], why, sizeof why) != HD_OK) {
+        return a->light_path || !why[0] ? cli_report("relight") : cli_usage_error(spec, "%s", why);
+    }
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < HD_SH_COEFFS; k++)
+            if (!(fabsf(lights[0].sh[c][k]) <= HD_LIGHT_MAX_COEFF)) return cli_usage_error(spec, "the light's coefficient %d (%g) is beyond %g: its shading could overflow", k,
+                                (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
+    if (a->source && cli_source_light_parse(spec, a->source, &run->apply.request.source)) return CLI_EXIT_USAGE;
+    return 0;
+}
+
 int cmd_relight(int argc, char **argv)
 {
-    const char *model_path = NULL, *light_path = NULL, *preset = NULL, *out = NULL, *mask_path = NULL;
-    const char *sheet_path = NULL, *env_path = NULL, *source = NULL;
-    cli_opt_floats dir = {.max = 2}, colour = {.max = 3};
-    float intensity = NAN, ambient = NAN, rotate = 0.0f, min_score = cli_min_score_default();
-    int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
+    relight_args a = {.dir = {.max = 2}, .colour = {.max = 3}, .intensity = NAN, .ambient = NAN,
+                      .min_score = cli_min_score_default()};
     cli_clip clip = {0};
     static char intensity_help[96], ambient_help[96];
     snprintf(intensity_help, sizeof intensity_help, "with --dir: strength of the directional light (default %g)",
@@ -84,28 +128,28 @@ int cmd_relight(int argc, char **argv)
     snprintf(ambient_help, sizeof ambient_help, "with --dir: constant shading added everywhere (default %g)",
              (double)HD_LIGHT_DEFAULT_AMBIENT);
     const cli_opt opts[] = {
-        CLI_OPT_MODEL_ROW(model_path),
-        {"light", 0, CLI_OPT_STRING, &light_path, "L.txt",
+        CLI_OPT_MODEL_ROW(a.model_path),
+        {"light", 0, CLI_OPT_STRING, &a.light_path, "L.txt",
          "target light file (9 SH coefficients, DPR order; 27 for a coloured light, docs/formats.md)"},
-        {"preset", 0, CLI_OPT_STRING, &preset, "K|all",
+        {"preset", 0, CLI_OPT_STRING, &a.preset, "K|all",
          "built-in light K in 0..6; 'all' writes all seven, -o is then a folder"},
-        {"dir", 0, CLI_OPT_FLOATS, &dir, "AZ,EL",
+        {"dir", 0, CLI_OPT_FLOATS, &a.dir, "AZ,EL",
          "a light from azimuth AZ and elevation EL in degrees (0,0 = from the viewer; AZ > 0 right, EL > 0 up)"},
-        {"intensity", 0, CLI_OPT_FLOAT, &intensity, "I", intensity_help},
-        {"ambient", 0, CLI_OPT_FLOAT, &ambient, "A", ambient_help},
-        {"colour", 0, CLI_OPT_FLOATS, &colour, "R,G,B", "with --dir: the light's colour (linear factors, default 1,1,1)"},
-        {"env", 0, CLI_OPT_STRING, &env_path, "MAP.pfm", "the light of an equirectangular environment map (PFM, PNG)"},
-        {"rotate", 0, CLI_OPT_FLOAT, &rotate, "DEG", "with --env: turn the map about the vertical axis (default 0)"},
-        {"output", 'o', CLI_OPT_STRING, &out, "OUT",
+        {"intensity", 0, CLI_OPT_FLOAT, &a.intensity, "I", intensity_help},
+        {"ambient", 0, CLI_OPT_FLOAT, &a.ambient, "A", ambient_help},
+        {"colour", 0, CLI_OPT_FLOATS, &a.colour, "R,G,B", "with --dir: the light's colour (linear factors, default 1,1,1)"},
+        {"env", 0, CLI_OPT_STRING, &a.env_path, "MAP.pfm", "the light of an equirectangular environment map (PFM, PNG)"},
+        {"rotate", 0, CLI_OPT_FLOAT, &a.rotate, "DEG", "with --env: turn the map about the vertical axis (default 0)"},
+        {"output", 'o', CLI_OPT_STRING, &a.out, "OUT",
          "one input: the relit image (8-bit PNG, or .pfm float32); many inputs, a folder or --preset all: "
          "the output folder (OUT/NAME.relit.png, OUT/NAME.preset<K>.png)"},
-        CLI_OPT_FACE_MASK_ROW(mask_path),
-        {"keep-brightness", 0, CLI_OPT_FLAG, &keep, NULL, "keep the input's mean brightness over the mask (default)"},
-        {"no-keep-brightness", 0, CLI_OPT_FLAG, &no_keep, NULL, "use the target light's own level"},
-        {"sheet", 0, CLI_OPT_STRING, &sheet_path, "FILE.png",
+        CLI_OPT_FACE_MASK_ROW(a.mask_path),
+        {"keep-brightness", 0, CLI_OPT_FLAG, &a.keep, NULL, "keep the input's mean brightness over the mask (default)"},
+        {"no-keep-brightness", 0, CLI_OPT_FLAG, &a.no_keep, NULL, "use the target light's own level"},
+        {"sheet", 0, CLI_OPT_STRING, &a.sheet_path, "FILE.png",
          "also write a contact sheet: input | delit | relit ... (one input only)"},
-        CLI_OPT_ALIGNED_ROW(aligned),
-        CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet),
+        CLI_OPT_ALIGNED_ROW(a.aligned),
+        CLI_OPT_APPLY_TAIL_ROWS(a.source, clip, a.min_score, a.threads, a.quiet),
     };
     const cli_cmd_spec spec = {
         "relight",
@@ -128,91 +172,43 @@ int cmd_relight(int argc, char **argv)
     cli_inputs in = {0};
     relight_run run = {0};
     hd_light_rgb lights[HD_LIGHT_PRESETS];
-    float l[HD_SH_COEFFS];
     int rc = CLI_EXIT_USAGE;
 
-    const int modes = (light_path != NULL) + (preset != NULL) + (dir.count > 0) + (env_path != NULL);
-    if ((code = cli_opts_common(&spec, threads, min_score))) goto done;
-    if (modes != 1) {
-        cli_usage_error(&spec, "give exactly one of --light, --preset, --dir and --env");
-        goto done;
-    }
-    int preset_k = INT_MIN;
-    if (preset && strcmp(preset, "all") != 0) {
-        char *end = NULL;
-        long k = strtol(preset, &end, 10);
-        if (end == preset || *end) {
-            cli_usage_error(&spec, "--preset wants 0..%d or 'all', got '%s'", HD_LIGHT_PRESETS - 1, preset);
-            goto done;
-        }
-        preset_k = k < -1 ? -1 : k > HD_LIGHT_PRESETS ? HD_LIGHT_PRESETS : (int)k;
-    }
-    const cli_light_words words = cli_light_words_of(&dir, intensity, ambient, &colour, preset_k, env_path, rotate);
-    char why[200];
-    if (cli_light_words_check(&words, why, sizeof why) != HD_OK) {
-        cli_usage_error(&spec, "%s", why);
-        goto done;
-    }
-    if (!out) {
-        cli_usage_error(&spec, "-o is required");
-        goto done;
-    }
-    if (keep && no_keep) {
-        cli_usage_error(&spec, "--keep-brightness and --no-keep-brightness exclude each other");
-        goto done;
-    }
-    run.apply.request.count = 1;
-    if (preset && preset_k == INT_MIN) { /* --preset all */
-        run.all = 1;
-        run.apply.request.count = HD_LIGHT_PRESETS;
-        for (int i = 0; i < HD_LIGHT_PRESETS; i++) hd_light_preset(i, l), hd_light_rgb_from_grey(l, &lights[i]);
-    } else if (light_path ? hd_light_read_rgb(light_path, &lights[0]) != HD_OK
-                          : cli_light_from_words(&words, &lights[0], why, sizeof why) != HD_OK) {
-        rc = light_path || !why[0] ? cli_report("relight") : cli_usage_error(&spec, "%s", why);
-        goto done;
-    }
-    for (int c = 0; c < 3; c++)
-        for (int k = 0; k < HD_SH_COEFFS; k++)
-            if (!(fabsf(lights[0].sh[c][k]) <= HD_LIGHT_MAX_COEFF)) {
-                cli_usage_error(&spec, "the light's coefficient %d (%g) is beyond %g: its shading could overflow", k,
-                                (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
-                goto done;
-            }
-    if (source && cli_source_light_parse(&spec, source, &run.apply.request.source)) goto done;
+    if ((code = relight_check(&spec, &a, &run, lights))) goto done;
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
         if (run.apply.request.source != HD_SOURCE_FIT)
             cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
-        else if (run.all || sheet_path || !hd_light_rgb_is_grey(&lights[0]))
+        else if (run.all || a.sheet_path || !hd_light_rgb_is_grey(&lights[0]))
             cli_usage_error(&spec, "a clip takes one light, grey (no --preset all, no --sheet, no colour)");
-        else rc = cli_video("relight", pos[0], out, model_path, lights[0].sh[0], NULL,
-                               no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
+        else rc = cli_video("relight", pos[0], a.out, a.model_path, lights[0].sh[0], NULL,
+                               a.no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP, &clip);
         goto done;
     }
     int single = 0;
-    if ((code = cli_output_mode(&spec, pos, npos, out, run.all ? "--preset all writes seven images into a folder" : NULL, &single))) goto done;
+    if ((code = cli_output_mode(&spec, pos, npos, a.out, run.all ? "--preset all writes seven images into a folder" : NULL, &single))) goto done;
     if (cli_inputs_collect(&in, pos, npos) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
-    if (sheet_path && in.total != 1) {
+    if (a.sheet_path && in.total != 1) {
         cli_usage_error(&spec, "--sheet goes with one input (%d given)", in.total);
         goto done;
     }
     rc = CLI_EXIT_FAIL;
     run.apply.request.lights = lights;
-    run.apply.request.delight = sheet_path != NULL;
+    run.apply.request.delight = a.sheet_path != NULL;
     run.apply.request.rule = HD_RULE_RATIO;
     run.apply.cmd = "relight";
-    run.apply.request.brightness = no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
-    run.apply.aligned = aligned;
-    run.apply.mask_path = mask_path;
-    run.sheet_path = sheet_path;
-    run.apply.min_score = min_score;
-    if (hd_model_load(model_path, &run.apply.model) != HD_OK) {
+    run.apply.request.brightness = a.no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    run.apply.aligned = a.aligned;
+    run.apply.mask_path = a.mask_path;
+    run.sheet_path = a.sheet_path;
+    run.apply.min_score = a.min_score;
+    if (hd_model_load(a.model_path, &run.apply.model) != HD_OK) {
         rc = cli_report("relight");
         goto done;
     }
-    rc = cli_batch_run("relight", "relit", &in, out, single, quiet, relight_one, &run, NULL);
+    rc = cli_batch_run("relight", "relit", &in, a.out, single, a.quiet, relight_one, &run, NULL);
 done:
     if (code) rc = code;
     if (run.apply.model) hd_model_free(run.apply.model);
