@@ -132,6 +132,99 @@ static hd_status parse_tensor(const char *path, const cJSON *item, uint64_t data
     return HD_OK;
 }
 
+/* Step one and two: the length word and the JSON header (an object), checked against the file's
+ * size; *header_out and *root_out are the caller's to free, also on failure. */
+static hd_status read_header(FILE *f, const char *path, char **header_out, cJSON **root_out, uint64_t *n_out,
+                             uint64_t *data_size)
+{
+    struct stat sb;
+    if (fstat(fileno(f), &sb) != 0)
+        return hd_fail(HD_ERR_IO, "%s: cannot stat: %s", path, strerror(errno));
+    if (!S_ISREG(sb.st_mode))
+        return hd_fail(HD_ERR_IO, "%s: not a regular file", path);
+    const uint64_t file_size = (uint64_t)sb.st_size;
+    unsigned char len_bytes[8];
+    if (file_size < 8 || fread(len_bytes, 1, 8, f) != 8)
+        return hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: %llu bytes is too short for the header length", path,
+                       (unsigned long long)file_size);
+    uint64_t n = 0;
+    for (int i = 7; i >= 0; i--) n = (n << 8) | len_bytes[i];
+    if (n > file_size - 8)
+        return hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header length %llu is larger than the rest of the file (%llu bytes)",
+                       path, (unsigned long long)n, (unsigned long long)(file_size - 8));
+    if (n > ST_MAX_HEADER)
+        return hd_fail(HD_ERR_RANGE, "%s: bad safetensors: header length %llu exceeds %llu bytes", path,
+                       (unsigned long long)n, (unsigned long long)ST_MAX_HEADER);
+    *data_size = file_size - 8 - n;
+    *n_out = n;
+    char *header = *header_out = hd_malloc((size_t)n + 1);
+    if (!header) return HD_ERR_NOMEM;
+    if (fread(header, 1, (size_t)n, f) != (size_t)n)
+        return hd_fail(HD_ERR_IO, "%s: read error in the header", path);
+    header[n] = '\0';
+    if (strlen(header) != n)
+        return hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header holds a NUL byte", path);
+    const char *parse_end = NULL;
+    cJSON *root = *root_out = cJSON_ParseWithLengthOpts(header, (size_t)n, &parse_end, 0);
+    if (!root) {
+        size_t at = parse_end && parse_end >= header ? (size_t)(parse_end - header) : 0;
+        return hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header is not valid JSON (near byte %zu)", path, at);
+    }
+    if (!cJSON_IsObject(root))
+        return hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header is not a JSON object", path);
+    return HD_OK;
+}
+
+/* Step three, everything checked: the names, the tensor data and the metadata into storage (its
+ * strings and data allocated here, freed by the caller on failure too). */
+static hd_status read_data(FILE *f, const char *path, const cJSON *root, const cJSON *meta, uint64_t n,
+                           size_t string_bytes, size_t total_floats, hd_safetensors *st, st_storage *storage)
+{
+    const cJSON *item;
+    storage->strings = hd_malloc(string_bytes ? string_bytes : 1);
+    storage->data = hd_malloc(total_floats ? total_floats * sizeof(float) : sizeof(float));
+    if (!storage->strings || !storage->data)
+        return hd_fail(HD_ERR_NOMEM, "%s: out of memory for %zu floats", path, total_floats);
+    char *sp = storage->strings;
+    float *dp = storage->data;
+    uint64_t data_start = 8 + n;
+    int k = 0;
+    cJSON_ArrayForEach(item, root)
+    {
+        if (item == meta) continue;
+        hd_tensor *t = &st->tensors[k++];
+        size_t len = strlen(item->string) + 1;
+        memcpy(sp, item->string, len);
+        t->name = sp;
+        sp += len;
+        t->data = dp;
+        size_t floats = 1;
+        for (int d = 0; d < t->ndim; d++) floats *= (size_t)t->shape[d];
+        const cJSON *offsets = cJSON_GetObjectItemCaseSensitive(item, "data_offsets");
+        uint64_t begin = (uint64_t)cJSON_GetArrayItem(offsets, 0)->valuedouble;
+        if (floats > 0 && (fseeko(f, (off_t)(data_start + begin), SEEK_SET) != 0 ||
+                           fread(dp, sizeof(float), floats, f) != floats))
+            return hd_fail(HD_ERR_IO, "%s: tensor '%s': read error", path, t->name);
+        dp += floats;
+    }
+    int m = 0;
+    if (meta) {
+        const cJSON *kv;
+        cJSON_ArrayForEach(kv, meta)
+        {
+            size_t a = strlen(kv->string) + 1, b = strlen(kv->valuestring) + 1;
+            memcpy(sp, kv->string, a);
+            st->meta_keys[m] = sp;
+            sp += a;
+            memcpy(sp, kv->valuestring, b);
+            st->meta_values[m] = sp;
+            sp += b;
+            m++;
+        }
+    }
+    return HD_OK;
+}
+
 /* Reads the file in three checked steps: the length word, the JSON header (every entry validated
  * against the file size, overlaps and duplicates refused), then the tensor data. */
 hd_status hd_safetensors_read(const char *path, hd_safetensors *st)
@@ -147,61 +240,9 @@ hd_status hd_safetensors_read(const char *path, hd_safetensors *st)
     st_entry *entries = NULL;
     const char **names = NULL;
     st_storage *storage = NULL;
-    struct stat sb;
-    if (fstat(fileno(f), &sb) != 0) {
-        status = hd_fail(HD_ERR_IO, "%s: cannot stat: %s", path, strerror(errno));
-        goto done;
-    }
-    if (!S_ISREG(sb.st_mode)) {
-        status = hd_fail(HD_ERR_IO, "%s: not a regular file", path);
-        goto done;
-    }
-    uint64_t file_size = (uint64_t)sb.st_size;
-    unsigned char len_bytes[8];
-    if (file_size < 8 || fread(len_bytes, 1, 8, f) != 8) {
-        status = hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: %llu bytes is too short for the header length",
-                         path, (unsigned long long)file_size);
-        goto done;
-    }
-    uint64_t n = 0;
-    for (int i = 7; i >= 0; i--) n = (n << 8) | len_bytes[i];
-    if (n > file_size - 8) {
-        status = hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header length %llu is larger than the rest "
-                         "of the file (%llu bytes)", path, (unsigned long long)n,
-                         (unsigned long long)(file_size - 8));
-        goto done;
-    }
-    if (n > ST_MAX_HEADER) {
-        status = hd_fail(HD_ERR_RANGE, "%s: bad safetensors: header length %llu exceeds %llu bytes", path,
-                         (unsigned long long)n, (unsigned long long)ST_MAX_HEADER);
-        goto done;
-    }
-    uint64_t data_size = file_size - 8 - n;
-    header = hd_malloc((size_t)n + 1);
-    if (!header) {
-        status = HD_ERR_NOMEM;
-        goto done;
-    }
-    if (fread(header, 1, (size_t)n, f) != (size_t)n) {
-        status = hd_fail(HD_ERR_IO, "%s: read error in the header", path);
-        goto done;
-    }
-    header[n] = '\0';
-    if (strlen(header) != n) {
-        status = hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header holds a NUL byte", path);
-        goto done;
-    }
-    const char *parse_end = NULL;
-    root = cJSON_ParseWithLengthOpts(header, (size_t)n, &parse_end, 0);
-    if (!root) {
-        size_t at = parse_end && parse_end >= header ? (size_t)(parse_end - header) : 0;
-        status = hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header is not valid JSON (near byte %zu)", path, at);
-        goto done;
-    }
-    if (!cJSON_IsObject(root)) {
-        status = hd_fail(HD_ERR_FORMAT, "%s: bad safetensors: header is not a JSON object", path);
-        goto done;
-    }
+    uint64_t n = 0, data_size = 0;
+    status = read_header(f, path, &header, &root, &n, &data_size);
+    if (status != HD_OK) goto done;
     /* Count tensors and metadata entries. */
     int count = 0, meta_count = 0;
     const cJSON *item, *meta = NULL;
@@ -282,52 +323,8 @@ hd_status hd_safetensors_read(const char *path, hd_safetensors *st)
         const cJSON *kv;
         cJSON_ArrayForEach(kv, meta) string_bytes += strlen(kv->string) + strlen(kv->valuestring) + 2;
     }
-    /* Everything checked: allocate and read. */
-    storage->strings = hd_malloc(string_bytes ? string_bytes : 1);
-    storage->data = hd_malloc(total_floats ? total_floats * sizeof(float) : sizeof(float));
-    if (!storage->strings || !storage->data) {
-        status = hd_fail(HD_ERR_NOMEM, "%s: out of memory for %zu floats", path, total_floats);
-        goto done;
-    }
-    char *sp = storage->strings;
-    float *dp = storage->data;
-    uint64_t data_start = 8 + n;
-    k = 0;
-    cJSON_ArrayForEach(item, root)
-    {
-        if (item == meta) continue;
-        hd_tensor *t = &st->tensors[k++];
-        size_t len = strlen(item->string) + 1;
-        memcpy(sp, item->string, len);
-        t->name = sp;
-        sp += len;
-        t->data = dp;
-        size_t floats = 1;
-        for (int d = 0; d < t->ndim; d++) floats *= (size_t)t->shape[d];
-        const cJSON *offsets = cJSON_GetObjectItemCaseSensitive(item, "data_offsets");
-        uint64_t begin = (uint64_t)cJSON_GetArrayItem(offsets, 0)->valuedouble;
-        if (floats > 0 && (fseeko(f, (off_t)(data_start + begin), SEEK_SET) != 0 ||
-                           fread(dp, sizeof(float), floats, f) != floats)) {
-            status = hd_fail(HD_ERR_IO, "%s: tensor '%s': read error", path, t->name);
-            goto done;
-        }
-        dp += floats;
-    }
-    int m = 0;
-    if (meta) {
-        const cJSON *kv;
-        cJSON_ArrayForEach(kv, meta)
-        {
-            size_t a = strlen(kv->string) + 1, b = strlen(kv->valuestring) + 1;
-            memcpy(sp, kv->string, a);
-            st->meta_keys[m] = sp;
-            sp += a;
-            memcpy(sp, kv->valuestring, b);
-            st->meta_values[m] = sp;
-            sp += b;
-            m++;
-        }
-    }
+    status = read_data(f, path, root, meta, n, string_bytes, total_floats, st, storage);
+    if (status != HD_OK) goto done;
     st->count = count;
     st->meta_count = meta_count;
     st->storage = storage;
