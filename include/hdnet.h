@@ -414,6 +414,8 @@ typedef struct hd_apply_request {
     hd_brightness brightness;   /* for the lights and the delit face */
     hd_source_light source;     /* the face's own light (ratio rule) */
     float guard;                /* g as a share of the mean source shading; <= 0: HD_RATIO_GUARD */
+    const char *operation;      /* what the caller asked for, naming it in error reasons ("delight",
+                                   "transfer"); NULL: "relight" */
 } hd_apply_request;
 
 /* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies

@@ -344,9 +344,29 @@ static void test_shipped_model(void)
     hd_model_free(model);
 }
 
+/* ---- the reasons name the operation the caller asked for, not always "relight" */
+
+static void test_reason_names_operation(void)
+{
+    hd_image grey = {0};
+    CHECK(hd_image_alloc(&grey, 8, 8, 1) == HD_OK); /* one channel: refused before any work */
+    hd_decomposition d = {0};
+    hd_apply_result r;
+    const char *ops[] = {"delight", "transfer", NULL};
+    for (int i = 0; i < 3; i++) {
+        hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, ops[i]};
+        CHECK(hd_apply_decomposition(&grey, &d, NULL, &q, &r) == HD_ERR_ARG);
+        char want[32];
+        snprintf(want, sizeof want, "%s:", ops[i] ? ops[i] : "relight");
+        CHECK(strncmp(hd_error(), want, strlen(want)) == 0);
+    }
+    hd_image_free(&grey);
+}
+
 int main(void)
 {
     test_own_light_and_delight();
+    test_reason_names_operation();
     test_new_light();
     test_keep_brightness();
     test_transfer_and_soft_mask();

@@ -256,7 +256,7 @@ static void test_rule(void)
     const size_t P = SIDE * SIDE;
     hd_light_rgb t;
     hd_light_rgb_from_grey(tgt, &t);
-    hd_apply_request q = {&t, 1, 1, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q = {&t, 1, 1, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f, NULL};
     hd_apply_result r;
     if (hd_apply_decomposition(&in, &d, &mask, &q, &r) != HD_OK) {
         fprintf(stderr, "test_relight_rule: %s\n", hd_error());
@@ -302,7 +302,7 @@ static void test_rule(void)
             bad.normal.data[p] = 1, bad.normal.data[P + p] = 0, bad.normal.data[2 * P + p] = 0;
         }
     CHECK(in_regions > 20);
-    hd_apply_request q1 = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q1 = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f, NULL};
     hd_apply_result good, worse;
     CHECK(hd_apply_decomposition(&in, &d, &mask, &q1, &good) == HD_OK);
     CHECK(hd_apply_decomposition(&in, &bad, &mask, &q1, &worse) == HD_OK);
@@ -313,7 +313,7 @@ static void test_rule(void)
     hd_image_free(&regions);
 
     /* brightness kept: the feather-weighted mean luminance of the face is the input's */
-    hd_apply_request qk = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request qk = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, NULL};
     CHECK(hd_apply_decomposition(&in, &d, &mask, &qk, &r) == HD_OK);
     double li = 0, lo = 0;
     for (size_t p = 0; p < P; p++) {
@@ -327,7 +327,7 @@ static void test_rule(void)
     /* a coloured light changes the channels apart; the paper's rule refuses it */
     hd_light_rgb warm = t;
     for (int k = 0; k < HD_SH_COEFFS; k++) warm.sh[2][k] *= 0.5f;
-    hd_apply_request qc = {&warm, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request qc = {&warm, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f, NULL};
     CHECK(hd_apply_decomposition(&in, &d, &mask, &qc, &r) == HD_OK);
     size_t mid = (SIDE / 2) * SIDE + SIDE / 2;
     CHECK(r.relit[0].data[2 * P + mid] / in.data[2 * P + mid] < 0.8f * r.relit[0].data[mid] / in.data[mid]);
@@ -374,7 +374,7 @@ static void test_source_light(void)
     /* the rule from the fitted light: the identity under it, and face_light is it */
     hd_light_rgb t;
     hd_light_rgb_from_grey(src, &t);
-    hd_apply_request q = {&t, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q = {&t, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, NULL};
     hd_apply_result r;
     CHECK(hd_apply_decomposition(&in, &d, &mask, &q, &r) == HD_OK);
     CHECK(memcmp(r.self.data, in.data, 3 * P * sizeof(float)) == 0);
@@ -482,7 +482,7 @@ static void test_guard(void)
     const float guards[3] = {0.3f, 0.1f, 0.02f};
     double errs[3];
     for (int i = 0; i < 3; i++) {
-        hd_apply_request q = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, guards[i]};
+        hd_apply_request q = {&t, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, guards[i], NULL};
         hd_apply_result r;
         errs[i] = 1;
         if (hd_apply_decomposition(&in, &d, &mask, &q, &r) != HD_OK) {

@@ -17,6 +17,7 @@ hd_status cli_apply_input(cli_apply_run *run, const cli_input *in, hd_image *pic
         st = hd_aligner_load(&run->aligner);
         if (st == HD_OK) hd_aligner_set_min_score(run->aligner, run->min_score);
     }
+    run->request.operation = run->cmd; /* the reasons name the command's operation */
     if (st == HD_OK && photo) {
         if (run->mask_path && !run->noted++) cli_note_mask(run->cmd, 1, run->mask_path, NULL);
         st = hd_apply_photo(run->model, run->aligner, picture, &run->request, res);

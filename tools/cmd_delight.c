@@ -52,7 +52,7 @@ int cmd_delight(int argc, char **argv)
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     cli_inputs in = {0};
-    cli_apply_run run = {"delight", {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f}, mask_path, aligned, 0,
+    cli_apply_run run = {"delight", {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, "delight"}, mask_path, aligned, 0,
                          min_score, NULL, NULL};
     int rc = CLI_EXIT_FAIL;
     if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||

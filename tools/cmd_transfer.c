@@ -82,7 +82,7 @@ int cmd_transfer(int argc, char **argv)
     hd_light_rgb rgb;
     /* the mask note of photos is printed once below, before the run */
     cli_apply_run run = {"transfer", {&rgb, 1, 0, 0, HD_RULE_RATIO, no_keep ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP,
-                                     src, 0.0f},
+                                     src, 0.0f, "transfer"},
                          mask_path, aligned, 1, min_score, NULL, NULL};
     int single = 0;
     if ((code = cli_output_mode(&spec, pos, npos, out, NULL, &single))) {

@@ -36,17 +36,24 @@ static hd_status copy_image(const hd_image *src, hd_image *dst)
     return st;
 }
 
+/* The operation the request is for, as its error reasons name it. */
+static const char *operation(const hd_apply_request *q)
+{
+    return q && q->operation ? q->operation : "relight";
+}
+
 static hd_status check_request(const hd_apply_request *q, const hd_image *picture)
 {
+    const char *op = operation(q);
     if (!q || q->count < 0 || (q->count > 0 && !q->lights))
-        return hd_fail(HD_ERR_ARG, "relight: the request's lights are missing");
-    if (q->rule != HD_RULE_RATIO && q->rule != HD_RULE_PAPER) return hd_fail(HD_ERR_ARG, "relight: unknown rule %d", (int)q->rule);
+        return hd_fail(HD_ERR_ARG, "%s: the request's lights are missing", op);
+    if (q->rule != HD_RULE_RATIO && q->rule != HD_RULE_PAPER) return hd_fail(HD_ERR_ARG, "%s: unknown rule %d", op, (int)q->rule);
     if (q->rule == HD_RULE_PAPER)
         for (int i = 0; i < q->count; i++)
             if (!hd_light_rgb_is_grey(&q->lights[i]))
-                return hd_fail(HD_ERR_ARG, "relight: the paper's rule takes grey lights only (light %d is coloured)", i);
+                return hd_fail(HD_ERR_ARG, "%s: the paper's rule takes grey lights only (light %d is coloured)", op, i);
     if (!picture || !picture->data || picture->channels != 3)
-        return hd_fail(HD_ERR_ARG, "relight: a picture has 3 channels (has %d)", picture ? picture->channels : 0);
+        return hd_fail(HD_ERR_ARG, "%s: a picture has 3 channels (has %d)", op, picture ? picture->channels : 0);
     return HD_OK;
 }
 
@@ -153,7 +160,7 @@ hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition
     hd_status st = check_request(q, texture);
     if (st != HD_OK) return st;
     if (mask && (!mask->data || mask->channels != 1))
-        return hd_fail(HD_ERR_ARG, "relight: a mask has 1 channel (has %d)", mask->channels);
+        return hd_fail(HD_ERR_ARG, "%s: a mask has 1 channel (has %d)", operation(q), mask->channels);
     if ((st = result_init(q, texture, r)) != HD_OK) {
         hd_apply_result_free(r);
         return st;
@@ -233,7 +240,8 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
                         hd_brightness brightness, hd_source_light source, hd_image *photo)
 {
     if (!f || !d || !photo || !photo->data || photo->channels != 3)
-        return hd_fail(HD_ERR_ARG, "relight: a face, its decomposition and a 3-channel photo are needed");
+        return hd_fail(HD_ERR_ARG, "%s: a face, its decomposition and a 3-channel photo are needed",
+                       target ? "relight" : "delight");
     const size_t P = (size_t)photo->width * (size_t)photo->height;
     float *feather = hd_malloc((P ? P : 1) * sizeof(float));
     if (!feather) return HD_ERR_NOMEM;

@@ -25,13 +25,13 @@ hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image
 {
     hd_light_rgb l;
     hd_light_rgb_from_grey(light, &l);
-    hd_apply_request q = {&l, 1, 0, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q = {&l, 1, 0, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f, NULL};
     return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out)
 {
-    hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, "delight"};
     return one_picture(model, NULL, image, mask, &q, out, NULL);
 }
 
@@ -73,7 +73,7 @@ hd_status hd_relight_photo(hd_model *model, hd_aligner *aligner, const hd_image 
     hd_light_rgb *l = hd_malloc((size_t)(count > 0 ? count : 1) * sizeof *l);
     if (!l) return HD_ERR_NOMEM;
     for (int i = 0; i < count; i++) hd_light_rgb_from_grey(lights[i], &l[i]);
-    hd_apply_request q = {l, count, delit != NULL, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f};
+    hd_apply_request q = {l, count, delit != NULL, 0, HD_RULE_RATIO, brightness, HD_SOURCE_FIT, 0.0f, NULL};
     hd_apply_result r;
     hd_status st = hd_apply_photo(model, aligner, photo, &q, &r);
     free(l);

@@ -60,7 +60,7 @@ hd_status hd_relight_sheet(hd_model *model, hd_aligner *aligner, const hd_image 
     int x0 = 0, y0 = 0, side = 0;
     const hd_relight_rule rules[2] = {HD_RULE_PAPER, HD_RULE_RATIO};
     for (int row = 0; row < 2 && st == HD_OK; row++) {
-        hd_apply_request q = {presets, HD_LIGHT_PRESETS, 1, 0, rules[row], HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f};
+        hd_apply_request q = {presets, HD_LIGHT_PRESETS, 1, 0, rules[row], HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, NULL};
         hd_apply_result r;
         if ((st = hd_apply_photo(model, aligner, photo, &q, &r)) != HD_OK) break;
         if (row == 0) {
