@@ -51,6 +51,7 @@ typedef struct dn {
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
     int act_pass;          /* the forward has no post-op: the leaky ReLU is a pass of our own */
     int fwd_wino;          /* the forward took the Winograd kernels */
+    int bf16;              /* inputs and weights in bf16 (FP32 outputs and accumulation) */
     dnnl_alg_kind_t bd_alg; /* the algorithm backward data took */
     /* backward data onto the first c_head input channels only (hd_conv3x3_plan_dinp_head), one
      * image per call: weights w(:, :c_head) seen through a strided view */
@@ -104,6 +105,14 @@ static hd_status dn_init(void)
 {
     pthread_once(&engine_once, engine_make);
     return engine ? HD_OK : hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no CPU engine");
+}
+
+/* oneDNN runs bf16 convolutions with JIT kernels from avx512_core_bf16 (the ISA values nest:
+ * each includes the bits of those it extends). */
+static int bf16_isa(void)
+{
+    unsigned isa = (unsigned)dnnl_get_effective_cpu_isa(), need = (unsigned)dnnl_cpu_isa_avx512_core_bf16;
+    return (isa & need) == need;
 }
 
 static dnnl_status_t attr_user_scratch(dnnl_primitive_attr_t *attr)
@@ -169,13 +178,14 @@ static const dnnl_memory_desc_t *qmd(const_dnnl_primitive_desc_t pd, dnnl_query_
     return dnnl_primitive_desc_query_md(pd, what, 0);
 }
 
-hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
+/* Builds the plan with the primitives' inputs (src, weights, diff_dst) in data type lp (f32, or
+ * bf16: oneDNN's bf16 kernels, which take FP32 for every output and accumulate in FP32). */
+static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
 {
-    hd_status st = dn_init();
-    if (st != HD_OK) return st;
     dn *d = hd_calloc(1, sizeof *d);
     if (!d) return HD_ERR_NOMEM;
     p->dnnl = d;
+    d->bf16 = lp == dnnl_bf16;
     if (dnnl_stream_create(&d->stream, engine, dnnl_stream_default_flags) != dnnl_success) {
         d->stream = NULL;
         hd_conv3x3_dnnl_free(p);
@@ -191,33 +201,38 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     dnnl_dims_t strides = {p->stride, p->stride}, pad_l = {1, 1};
     /* right padding so that Ho = (H + 1 + pad_r - 3) / stride + 1 exactly */
     dnnl_dims_t pad_r = {(p->Ho - 1) * p->stride + 3 - p->H - 1, (p->Wo - 1) * p->stride + 3 - p->W - 1};
-    dnnl_memory_desc_t s_any, w_any, d_any, b_md, s_user, w_user, d_user;
-    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&w_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
+    /* the primitives' tensors: inputs (src, weights, diff_dst: *_lp) in lp, outputs (dst,
+     * diff_src: *_any; diff_weights: dw_any) and the bias in f32; in FP32 both are the same */
+    dnnl_memory_desc_t s_any, d_any, s_lp, w_lp, d_lp, dw_any, b_md, s_user, w_user, d_user;
     dnnl_format_tag_t act_tag = p->nc16 ? dnnl_nChw16c : dnnl_nchw;
+    dnnl_format_tag_t act_any = p->nc16 ? dnnl_nChw16c : dnnl_format_tag_any; /* nc16: no reorders of layout */
+    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&s_lp, 4, sdims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&d_lp, 4, ddims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&w_lp, 4, wdims, lp, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&dw_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
     DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, act_tag));
     DN(dnnl_memory_desc_init_by_tag(&w_user, 4, wdims, dnnl_f32, dnnl_oihw));
     DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, act_tag));
-    if (p->nc16) s_any = s_user, d_any = d_user; /* no reorders of activations */
 
     const char *direct_env = getenv("HD_CONV_DIRECT");
-    int wino = p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
+    int wino = lp == dnnl_f32 && p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
                p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
 
     /* forward: dst = act(conv(src, w) + b); Winograd without the post-op, else direct with it */
     dnnl_convolution_desc_t fdesc, ddesc, wdesc;
     DN(attr_user_scratch(&fattr));
-    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, &s_any,
-                                                   &w_any, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
+    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, &s_lp,
+                                                   &w_lp, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
         dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL) == dnnl_success) {
         d->act_pass = p->act == HD_ACT_LRELU;
         d->fwd_wino = 1;
     } else {
         fpd = NULL;
-        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any,
-                                              &w_any, &b_md, &d_any, strides, pad_l, pad_r));
+        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_lp,
+                                              &w_lp, &b_md, &d_any, strides, pad_l, pad_r));
         if (p->act == HD_ACT_LRELU) {
             DN(dnnl_post_ops_create(&po));
             DN(dnnl_post_ops_append_eltwise(po, 1.0f, dnnl_eltwise_relu, p->slope, 0.0f)); /* x > 0 ? x : alpha x */
@@ -234,11 +249,11 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
 
     /* backward data: dsrc = conv^T(ddst, w) */
     DN(attr_user_scratch(&dattr));
-    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, &s_any, &w_any, &d_any,
+    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, &s_any, &w_lp, &d_lp,
                                                           strides, pad_l, pad_r) != dnnl_success ||
         dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd) != dnnl_success) {
         dpd = NULL;
-        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_any, &d_any,
+        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_lp, &d_lp,
                                                     strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd));
         d->bd_alg = dnnl_convolution_direct;
@@ -255,12 +270,12 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
 
     /* backward weights: dw = ddst x src, db = sum ddst */
     DN(attr_user_scratch(&wattr));
-    if (!wino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, &s_any, &w_any, &b_md,
-                                                             &d_any, strides, pad_l, pad_r) != dnnl_success ||
+    if (!wino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, &s_lp, &dw_any, &b_md,
+                                                             &d_lp, strides, pad_l, pad_r) != dnnl_success ||
         dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd) != dnnl_success) {
         wpd = NULL;
-        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_any, &w_any, &b_md,
-                                                       &d_any, strides, pad_l, pad_r));
+        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_lp, &dw_any, &b_md,
+                                                       &d_lp, strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd));
     }
     NOT_REFERENCE(wpd, "backward weights");
@@ -299,6 +314,39 @@ fail:
     if (po) dnnl_post_ops_destroy(po);
     hd_conv3x3_dnnl_free(p);
     return HD_ERR_ARG;
+}
+
+hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
+{
+    hd_status st = dn_init();
+    if (st != HD_OK) return st;
+    if (p->bf16) {
+        /* bf16 where oneDNN has JIT kernels for it (avx512_core_bf16 and up), else FP32 */
+        if (bf16_isa() && plan_typed(p, dnnl_bf16) == HD_OK) return HD_OK;
+        hd_clear_error();
+        p->bf16 = 0;
+    }
+    return plan_typed(p, dnnl_f32);
+}
+
+int hd_conv3x3_dnnl_bf16_available(void) { return dn_init() == HD_OK && bf16_isa(); }
+
+const char *hd_conv3x3_dnnl_isa(void)
+{
+    if (dn_init() != HD_OK) return "none";
+    switch (dnnl_get_effective_cpu_isa()) {
+    case dnnl_cpu_isa_sse41: return "sse41";
+    case dnnl_cpu_isa_avx: return "avx";
+    case dnnl_cpu_isa_avx2: return "avx2";
+    case dnnl_cpu_isa_avx512_mic: return "avx512_mic";
+    case dnnl_cpu_isa_avx512_mic_4ops: return "avx512_mic_4ops";
+    case dnnl_cpu_isa_avx512_core: return "avx512_core";
+    case dnnl_cpu_isa_avx512_core_vnni: return "avx512_core_vnni";
+    case dnnl_cpu_isa_avx512_core_bf16: return "avx512_core_bf16";
+    case dnnl_cpu_isa_avx512_core_amx: return "avx512_core_amx";
+    case dnnl_cpu_isa_avx2_vnni: return "avx2_vnni";
+    default: return "other";
+    }
 }
 
 hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head)
@@ -363,6 +411,8 @@ fail:
 }
 
 int hd_conv3x3_dnnl_winograd(const hd_conv3x3 *p) { return p->dnnl && ((const dn *)p->dnnl)->fwd_wino; }
+
+int hd_conv3x3_dnnl_is_bf16(const hd_conv3x3 *p) { return p->dnnl && ((const dn *)p->dnnl)->bf16; }
 
 int hd_conv3x3_dnnl_head(const hd_conv3x3 *p) { return p->dnnl ? ((const dn *)p->dnnl)->c_head : 0; }
 
