@@ -49,6 +49,7 @@ typedef struct dn {
     float *zero_bias, *dbias_buf;
     const float *last_src; /* the input of the last forward, held by src.prim */
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
+    int share_ddst;        /* backward weights reads diff_dst in backward data's (reordered) format */
     int act_pass;          /* the forward has no post-op: the leaky ReLU is a pass of our own */
     int fwd_wino;          /* the forward took the Winograd kernels */
     int bf16;              /* inputs and weights in bf16 (FP32 outputs and accumulation) */
@@ -285,6 +286,8 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
     DN(make_view(&d->bw_ddst, &d_user, qmd(wpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
     DN(make_view(&d->bw_dw, &w_user, qmd(wpd, dnnl_query_diff_weights_md), 0, 1, &scratch));
     d->share_src = d->src.reorder && dnnl_memory_desc_equal(qmd(fpd, dnnl_query_src_md), qmd(wpd, dnnl_query_src_md));
+    d->share_ddst = d->bd_ddst.reorder &&
+                    dnnl_memory_desc_equal(qmd(dpd, dnnl_query_diff_dst_md), qmd(wpd, dnnl_query_diff_dst_md));
 
     d->zero_bias = hd_calloc((size_t)p->OC, sizeof(float));
     d->dbias_buf = hd_calloc((size_t)p->OC, sizeof(float));
@@ -475,6 +478,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
                               const float *inp, const float *w, int overwrite)
 {
     dn *d = p->dnnl;
+    dnnl_memory_t ddst_done = NULL; /* diff_dst already reordered by backward data, in this call */
     if (dinp) {
         /* dsrc = conv^T(ddst, w); then dinp = dsrc or dinp += dsrc */
         dnnl_memory_t ddst = view_in(d, &d->bd_ddst, dout), wt = view_in(d, &d->bd_w, w), dsrc;
@@ -488,6 +492,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, ddst}, {DNNL_ARG_WEIGHTS, wt},
                                    {DNNL_ARG_DIFF_SRC, dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
         dnnl_primitive_execute(d->bwd_data, d->stream, 4, args);
+        if (d->share_ddst) ddst_done = ddst;
         if (!p->nc16) {
             /* a reorder with a sum post-op: dinp += dsrc */
             dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
@@ -507,7 +512,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_memory_t src;
         if (d->share_src && d->last_src == inp) src = d->src.prim; /* the forward's copy */
         else src = view_in(d, &d->bw_src, inp);
-        dnnl_memory_t ddst = view_in(d, &d->bw_ddst, dout);
+        dnnl_memory_t ddst = ddst_done ? ddst_done : view_in(d, &d->bw_ddst, dout);
         dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_DIFF_DST, ddst},
                                    {DNNL_ARG_DIFF_WEIGHTS, d->bw_dw.prim}, {DNNL_ARG_DIFF_BIAS, d->dbias},
                                    {DNNL_ARG_SCRATCHPAD, d->scratch}};
