@@ -219,8 +219,15 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
     DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, act_tag));
 
     const char *direct_env = getenv("HD_CONV_DIRECT");
-    int wino = lp == dnnl_f32 && p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
-               p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
+    int wino_shape = p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
+                     p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
+    int wino = lp == dnnl_f32 && wino_shape;
+    /* backward weights in bf16 lost to FP32 (Winograd or direct) on this machine's Zen 5 (1.7x
+     * slower per step, docs/performance.md) where forward and backward data gained (2x, 1.25x): a
+     * bf16 plan computes its weight gradients in FP32 unless HD_BF16_WEIGHT_GRAD=1 */
+    const char *wg_env = getenv("HD_BF16_WEIGHT_GRAD");
+    int bw_f32 = lp != dnnl_f32 && !(wg_env && strcmp(wg_env, "1") == 0);
+    dnnl_primitive_desc_t hint32 = NULL; /* the FP32 forward backward weights then takes as its hint */
 
     /* forward: dst = act(conv(src, w) + b); Winograd without the post-op, else direct with it */
     dnnl_convolution_desc_t fdesc, ddesc, wdesc;
@@ -271,13 +278,30 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
 
     /* backward weights: dw = ddst x src, db = sum ddst */
     DN(attr_user_scratch(&wattr));
-    if (!wino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, &s_lp, &dw_any, &b_md,
-                                                             &d_lp, strides, pad_l, pad_r) != dnnl_success ||
-        dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd) != dnnl_success) {
+    const dnnl_memory_desc_t *ws = &s_lp, *wd = &d_lp;
+    const_dnnl_primitive_desc_t whint = fpd;
+    int wwino = wino;
+    if (bw_f32) {
+        dnnl_convolution_desc_t hdesc;
+        ws = &s_any, wd = &d_any, wwino = wino_shape;
+        dnnl_alg_kind_t halg = wwino ? dnnl_convolution_winograd : dnnl_convolution_direct;
+        if (dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, halg, &s_any, &dw_any, &b_md, &d_any,
+                                               strides, pad_l, pad_r) != dnnl_success ||
+            dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL) != dnnl_success) {
+            hint32 = NULL, wwino = 0;
+            DN(dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any, &dw_any,
+                                                  &b_md, &d_any, strides, pad_l, pad_r));
+            DN(dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL));
+        }
+        whint = hint32;
+    }
+    if (!wwino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, ws, &dw_any, &b_md,
+                                                              wd, strides, pad_l, pad_r) != dnnl_success ||
+        dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint) != dnnl_success) {
         wpd = NULL;
-        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_lp, &dw_any, &b_md,
-                                                       &d_lp, strides, pad_l, pad_r));
-        DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd));
+        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, ws, &dw_any, &b_md, wd, strides,
+                                                       pad_l, pad_r));
+        DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint));
     }
     NOT_REFERENCE(wpd, "backward weights");
     DN(dnnl_primitive_create(&d->bwd_weights, wpd));
@@ -302,6 +326,7 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
     dnnl_primitive_desc_destroy(fpd);
     dnnl_primitive_desc_destroy(dpd);
     dnnl_primitive_desc_destroy(wpd);
+    if (hint32) dnnl_primitive_desc_destroy(hint32);
     dnnl_primitive_attr_destroy(fattr);
     dnnl_primitive_attr_destroy(dattr);
     dnnl_primitive_attr_destroy(wattr);
@@ -311,6 +336,7 @@ fail:
     if (fpd) dnnl_primitive_desc_destroy(fpd);
     if (dpd) dnnl_primitive_desc_destroy(dpd);
     if (wpd) dnnl_primitive_desc_destroy(wpd);
+    if (hint32) dnnl_primitive_desc_destroy(hint32);
     if (fattr) dnnl_primitive_attr_destroy(fattr);
     if (dattr) dnnl_primitive_attr_destroy(dattr);
     if (wattr) dnnl_primitive_attr_destroy(wattr);
