@@ -12,8 +12,8 @@
 #include "bench.h"
 #include "hdnet_tool.h"
 
-/* A synthetic batch: smooth colours, a round mask, normals of a sphere. */
-static void fill_batch(hd_pair_batch *b)
+/* A synthetic batch: smooth colours, a round mask, normals of a sphere (bench.h). */
+void bench_fill_batch(hd_pair_batch *b)
 {
     int S = b->size;
     size_t HW = (size_t)S * S;
@@ -135,7 +135,7 @@ int bench_hdnet(const bench_args *a)
     /* training step at a->batch pairs; what the stages leave is the losses, Adam and the glue */
     int pairs = images;
     if (hd_trainer_create(&t, &cfg, pairs, 0, 1) != HD_OK) goto fail;
-    fill_batch(&t.batch);
+    bench_fill_batch(&t.batch);
     hd_step_result res;
     if (hd_trainer_step(&t, &res, NULL) != HD_OK) goto fail; /* warm-up */
     double step = 1e30;
@@ -171,7 +171,7 @@ int bench_hdnet(const bench_args *a)
     hd_trainer_free(&t);
     hd_clear_error();
     if (hd_trainer_create(&t, &cfg, PAPER_BATCH, PAPER_MICRO, 1) != HD_OK) goto fail;
-    fill_batch(&t.batch);
+    bench_fill_batch(&t.batch);
     train8m_bytes = training_bytes(&t);
     /* (not timed: a first step also pays for touching every page of its memory once) */
     if (hd_trainer_step(&t, &res, NULL) != HD_OK) goto fail;

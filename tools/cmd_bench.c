@@ -174,7 +174,8 @@ static hd_status time_unet(const bench_args *a, net_times *t)
 int cmd_bench(int argc, char **argv)
 {
     bench_args a = {.size = 256, .batch = 1, .threads = 2, .width = 48, .json = 0, .repeats = 5, .out = stdout};
-    int layers = 1, portable = 1, photos = 1, photos_only = 0, no_photos = 0;
+    int layers = 1, portable = 1, photos = 1, photos_only = 0, no_photos = 0, profile = 0;
+    const char *precision = NULL;
     const cli_opt opts[] = {
         {"size", 0, CLI_OPT_INT, &a.size, "S", "image side, a multiple of 32 (default 256)"},
         {"batch", 0, CLI_OPT_INT, &a.batch, "B", "images per forward (default 1)"},
@@ -184,16 +185,23 @@ int cmd_bench(int argc, char **argv)
         {"json", 0, CLI_OPT_FLAG, &a.json, NULL, "print one JSON object instead of tables"},
         {"photos-only", 0, CLI_OPT_FLAG, &photos_only, NULL, "only the photos-per-second section (1024 x 1024 portraits)"},
         {"no-photos", 0, CLI_OPT_FLAG, &no_photos, NULL, "skip the photos-per-second section"},
+        {"profile", 0, CLI_OPT_FLAG, &profile, NULL, "only a training step at --size, --width, --batch pairs, split into phases"},
+        {"data", 0, CLI_OPT_STRING, &a.data, "DIR", "with --profile: also time loading a batch from this training set"},
+        {"precision", 0, CLI_OPT_STRING, &precision, "P", "convolutions in fp32, bf16 or auto (bf16 where the CPU has it; default: HD_CONV_PRECISION, else fp32)"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "bench", "[--size S] [--batch B] [-j T] [--width W] [--repeats R] [--json] [--photos-only | --no-photos]",
+        "bench", "[--size S] [--batch B] [-j T] [--width W] [--repeats R] [--json] [--photos-only | --no-photos]\n"
+                 "       [--precision fp32|bf16|auto] [--profile [--data DIR]]",
         "Measures the machine's SGEMM peak (OpenBLAS, 2048^3), then every 3x3 convolution of a\n"
         "Common-Net (cin 32, cout 3) forward, backward-data and backward-weights, the whole Common-Net\n"
         "forward and forward+backward, and peak memory; then the HD-Net and alignment sections, and\n"
         "photos per second end to end (decode, detect, align, model, blend, encode) on 1024 x 1024\n"
         "portraits with the shipped model.\n"
-        "GFLOP/s count direct-convolution FLOPs (2 x multiply-adds) over the best time.",
+        "GFLOP/s count direct-convolution FLOPs (2 x multiply-adds) over the best time.\n"
+        "--profile runs a training step only (as `hdnet train`: forward, the losses with their fits,\n"
+        "backward, the discriminator, both Adams): its median time and iterations per hour, then a\n"
+        "profiled run split into phases (wall, CPU, idle cores) and every convolution by shape.",
         opts, 0, 0};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -207,10 +215,23 @@ int cmd_bench(int argc, char **argv)
     if (a.repeats < 1 || a.repeats > 1000) return cli_usage_error(&spec, "--repeats must be in 1..1000, got %d", a.repeats);
     if (photos_only && no_photos) return cli_usage_error(&spec, "--photos-only and --no-photos exclude each other");
     photos = !no_photos;
+    if (precision) {
+        hd_precision p;
+        if (hd_precision_parse(precision, "--precision", &p) != HD_OK) return cli_usage_error(&spec, "%s", hd_error());
+        hd_conv_set_precision(p);
+    }
+    if (a.data && !profile) return cli_usage_error(&spec, "--data goes with --profile");
     omp_set_num_threads(a.threads);
     openblas_set_num_threads(a.threads);
     FILE *o = stdout;
     int J = a.json;
+    if (profile) {
+        a.out = o;
+        fprintf(o, "hdnet bench --profile: threads %d, OMP_WAIT_POLICY %s\n", a.threads,
+                getenv("OMP_WAIT_POLICY") ? getenv("OMP_WAIT_POLICY") : "unset");
+        bench_print_engine(o, 0);
+        return bench_profile && bench_profile(&a) == 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
+    }
     if (photos_only) {
         a.out = o;
         if (J) fprintf(o, "{\n\"threads\": %d,\n", a.threads);
@@ -227,6 +248,7 @@ int cmd_bench(int argc, char **argv)
     if (J) fprintf(o, "{\n\"omp_wait_policy\": \"%s\",\n", wait);
     else fprintf(o, "hdnet bench: size %d, batch %d, threads %d, width %d, best of %d, OMP_WAIT_POLICY %s\n", a.size,
                  a.batch, a.threads, a.width, a.repeats, wait);
+    bench_print_engine(o, J);
     fflush(o);
     a.sgemm_peak_gflops = sgemm_peak(2048, a.repeats < 3 ? a.repeats : 3);
     double peak = a.sgemm_peak_gflops;

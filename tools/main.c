@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include "cli.h"
 #include "mpi.h"
+#include "nn/nn.h"
 
 #include "commands.inc"
 
@@ -99,6 +100,17 @@ int main(int argc, char **argv)
     if (strcmp(name, "--completion") == 0) {
         fprintf(stderr, "hdnet: --completion wants 'bash'\n");
         return CLI_EXIT_USAGE;
+    }
+    /* HD_CONV_PRECISION=fp32|bf16|auto: the oneDNN convolutions' precision (bf16 only where the CPU
+     * has it; FP32 by default, docs/performance.md) */
+    const char *prec = getenv("HD_CONV_PRECISION");
+    if (prec && *prec) {
+        hd_precision p;
+        if (hd_precision_parse(prec, "HD_CONV_PRECISION", &p) != HD_OK) {
+            fprintf(stderr, "hdnet: %s\n", hd_error());
+            return CLI_EXIT_USAGE;
+        }
+        hd_conv_set_precision(p);
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(commands[i].name, name) == 0) {

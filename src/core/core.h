@@ -112,6 +112,36 @@ hd_status hd_read_file(const char *path, size_t max_bytes, char **data, size_t *
 /* ---- time (progress lines are the CLI's: tools/progress.c) */
 double hd_seconds(void); /* monotonic */
 
+/* ---- profiling (benchmarks only; profile.c). While enabled, the callers' hooks add wall and
+ * process-CPU seconds to one process-wide table: phases form a tree (hd_prof_begin / hd_prof_end,
+ * per thread, nested; hd_prof_lap adds a finished child), ops (the engine's layers, keyed by name and
+ * shape) a flat table beside it that does not count as children. Disabled, every hook is a branch.
+ * Names are static strings (compared by pointer and content). */
+typedef struct hd_prof_mark {
+    double wall, cpu;
+} hd_prof_mark;
+typedef struct hd_prof_entry {
+    const char *name;
+    int parent, depth;      /* phases: the enclosing phase's index (-1 at the top); ops: -2 */
+    int C, OC, H, stride;   /* ops: the shape (0 when it has none) */
+    double wall, cpu;       /* inclusive seconds */
+    double child_wall, child_cpu;
+    long calls;
+} hd_prof_entry;
+#define HD_PROF_MAX 512
+/* Turns profiling on (the table cleared) or off (the table kept for reading). */
+void hd_prof_enable(int on);
+int hd_prof_enabled(void);
+hd_prof_mark hd_prof_now(void); /* {0, 0} when disabled */
+void hd_prof_begin(const char *name);
+void hd_prof_end(void);
+/* Adds [*since, now) as a finished child phase `name` of the open phase, then *since = now. */
+void hd_prof_lap(const char *name, hd_prof_mark *since);
+/* Adds [since, now) to op `name` of that shape. */
+void hd_prof_op(const char *name, int C, int OC, int H, int stride, hd_prof_mark since);
+/* The table (entries in order of first appearance); returns the count. */
+int hd_prof_table(const hd_prof_entry **entries);
+
 /* ---- paths */
 /* A malloc'ed copy of s (NULL with reason on failure). */
 char *hd_strdup(const char *s);

@@ -19,14 +19,27 @@ const char *const hd_net_stage_names[HD_NET_STAGES] = {"conv_in", "a_net", "s_ne
 /* Profiling (net->profile set): the clock at the start of a stage, then lap() adds the time since
  * *t to stage k of the forward (fwd) or backward table and restarts *t. Without a profile both
  * do nothing. */
-static double clock_start(const hd_net *net) { return net->profile ? hd_seconds() : 0.0; }
+/* The benchmarks' profiler (core.h, hd_prof_*) gets the same laps as phases of the same names. */
+typedef struct stage_clock {
+    double t;
+    hd_prof_mark m;
+} stage_clock;
+static const char *const stage_bwd_names[HD_NET_STAGES] = {"conv_in bwd", "a_net bwd", "s_net bwd", "n_net bwd",
+                                                           "l_net bwd",   "heads bwd", "disc bwd"};
 
-static void lap(const hd_net *net, int bwd, hd_net_stage k, double *t)
+static stage_clock clock_start(const hd_net *net)
 {
+    stage_clock c = {net->profile ? hd_seconds() : 0.0, hd_prof_now()};
+    return c;
+}
+
+static void lap(const hd_net *net, int bwd, hd_net_stage k, stage_clock *c)
+{
+    hd_prof_lap(bwd ? stage_bwd_names[k] : hd_net_stage_names[k], &c->m);
     if (!net->profile) return;
     double now = hd_seconds();
-    (bwd ? net->profile->bwd : net->profile->fwd)[k] += now - *t;
-    *t = now;
+    (bwd ? net->profile->bwd : net->profile->fwd)[k] += now - c->t;
+    c->t = now;
 }
 
 /* ---------------------------------------------------------------- parameter tables */
@@ -321,7 +334,7 @@ static float *param_of(const hd_param_table *t, float *base, const char *name)
 void hd_net_forward(hd_net *net)
 {
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
-    double t = clock_start(net);
+    stage_clock t = clock_start(net);
     /* f = conv_in(I) */
     hd_conv3x3_forward(net->conv_in, net->feat, net->input, P("conv_in.weight"), P("conv_in.bias"));
     lap(net, 0, HD_STAGE_CONV_IN, &t);
@@ -372,7 +385,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     size_t n1 = B * HD_LNET_HIDDEN * (size_t)net->H1 * net->W1, n2 = B * HD_LNET_HIDDEN * (size_t)net->H2 * net->W2;
     size_t nb = B * (size_t)net->cfg.width * net->Hb * net->Wb;
     int all = set == HD_TRAIN_ALL;
-    double t = clock_start(net);
+    stage_clock t = clock_start(net);
 
     /* L-Net. forward: l = fc(pool); pool = mean(h2); h2 = lrelu(conv2(h1)); h1 = lrelu(conv1(bottleneck)) */
     memset(net->d_l_pool, 0, B * HD_LNET_HIDDEN * sizeof(float));
@@ -423,7 +436,7 @@ void hd_disc_forward(hd_net *net)
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
-    double t = clock_start(net);
+    stage_clock t = clock_start(net);
     /* c1: lrelu_0.2(conv(x)) */
     hd_conv3x3_forward(net->disc_c1, net->disc_h1, net->disc_in, DP("disc.c1.weight"), DP("disc.c1.bias"));
     const float *prev = net->disc_h1;
@@ -445,7 +458,7 @@ void hd_disc_backward(hd_net *net, int want_input, int want_params)
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
     size_t B = (size_t)net->B;
-    double t = clock_start(net);
+    stage_clock t = clock_start(net);
     memset(net->d_disc_h1, 0, B * 64 * (size_t)net->Hd[0] * net->Wd[0] * sizeof(float));
     for (int k = 0; k < 3; k++) {
         size_t n = B * (size_t)disc_channels[k + 2] * net->Hd[k + 1] * net->Wd[k + 1] * sizeof(float);

@@ -39,6 +39,15 @@ const char *hd_conv3x3_kernel(const hd_conv3x3 *p)
     return p->path == HD_CONV_NAIVE ? "naive" : "portable";
 }
 
+const char *hd_conv3x3_precision(const hd_conv3x3 *p)
+{
+#ifdef HD_HAVE_DNNL
+    if (p->dnnl && hd_conv3x3_dnnl_is_bf16(p)) return "bf16";
+#endif
+    (void)p;
+    return "fp32";
+}
+
 #ifdef HD_HAVE_DNNL
 /* Around oneDNN calls of a serial plan: one thread, then the caller's count again. */
 static int serial_begin(const hd_conv3x3 *p)
@@ -66,6 +75,7 @@ static hd_conv3x3 *new_plan(int B, int C, int H, int W, int OC, int stride, hd_a
     if (!p) return NULL;
     p->B = B, p->C = C, p->H = H, p->W = W, p->OC = OC, p->stride = stride;
     p->act = act, p->slope = slope, p->nc16 = nc16;
+    p->bf16 = hd_conv_precision() == HD_PRECISION_BF16;
     p->Ho = (H - 1) / stride + 1;
     p->Wo = (W - 1) / stride + 1;
     p->macs = 9.0 * B * C * OC * p->Ho * p->Wo;
@@ -357,19 +367,26 @@ static void portable_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
 
 /* ---- dispatch */
 
+/* The profile's op names (core.h, profiling): a convolution's three parts and its activation's
+ * backward, keyed by the plan's shape. */
+#define PROF_OP(name, p, since) hd_prof_op(name, (p)->C, (p)->OC, (p)->H, (p)->stride, since)
+
 void hd_conv3x3_forward(hd_conv3x3 *p, float *out, const float *inp, const float *w, const float *b)
 {
+    hd_prof_mark t0 = hd_prof_now();
 #ifdef HD_HAVE_DNNL
     if (p->dnnl) {
         int nt = serial_begin(p);
         hd_conv3x3_dnnl_forward(p, out, inp, w, b);
         serial_end(nt);
+        PROF_OP("conv forward", p, t0);
         return;
     }
 #endif
     if (p->path == HD_CONV_NAIVE) naive_forward(p, out, inp, w, b);
     else portable_forward(p, out, inp, w, b);
     if (p->act == HD_ACT_LRELU) hd_conv3x3_lrelu(out, p->out_n, p->slope);
+    PROF_OP("conv forward", p, t0);
 }
 
 /* g[i] *= (ref[i] > 0 ? 1 : slope) for i < n: the leaky ReLU in place (ref = g) and its backward
@@ -403,13 +420,11 @@ static void lrelu_scale_par(float *g, const float *ref, size_t n, float slope)
 
 void hd_conv3x3_lrelu(float *x, size_t n, float slope) { lrelu_scale_par(x, x, n, slope); }
 
-/* Shared by both backward entries: overwrite says whether dinp is overwritten. */
-static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout, const float *out,
-                     const float *inp, const float *w, int overwrite, int head)
+/* The backward after the activation's: dinp (overwritten when `overwrite`, onto the plan's head
+ * when `head`), dw and db from dout, the gradient before the activation. */
+static void backward_parts(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout, const float *inp,
+                           const float *w, int overwrite, int head)
 {
-    /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
-     * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
-    if (p->act == HD_ACT_LRELU) lrelu_scale_par(dout, out, p->out_n, p->slope);
 #ifdef HD_HAVE_DNNL
     if (p->dnnl) {
         int nt = serial_begin(p);
@@ -417,7 +432,7 @@ static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *do
             hd_conv3x3_dnnl_backward_head(p, dinp, dout, w);
             dinp = NULL; /* done */
         }
-        hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);
+        if (dinp || dw || db) hd_conv3x3_dnnl_backward(p, dinp, dw, db, dout, inp, w, overwrite);
         serial_end(nt);
         return;
     }
@@ -427,6 +442,29 @@ static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *do
     if (dinp && overwrite) memset(dinp, 0, p->in_n * sizeof(float));
     if (p->path == HD_CONV_NAIVE) naive_backward(p, dinp, dw, db, dout, inp, w);
     else portable_backward(p, dinp, dw, db, dout, inp, w);
+}
+
+/* Shared by both backward entries: overwrite says whether dinp is overwritten. */
+static void backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout, const float *out,
+                     const float *inp, const float *w, int overwrite, int head)
+{
+    /* forward: out = lrelu(pre) = pre > 0 ? pre : slope pre, and out > 0 exactly when pre > 0
+     * (slope > 0), so dpre = dout * (out > 0 ? 1 : slope), in place */
+    hd_prof_mark t0 = hd_prof_now();
+    if (p->act == HD_ACT_LRELU) lrelu_scale_par(dout, out, p->out_n, p->slope);
+    if (hd_prof_enabled()) {
+        /* profiled: the activation's backward, backward-data and backward-weights timed apart
+         * (each part is independent of the other: the same results) */
+        PROF_OP("conv act backward", p, t0);
+        t0 = hd_prof_now();
+        if (dinp) backward_parts(p, dinp, NULL, NULL, dout, inp, w, overwrite, head);
+        PROF_OP("conv backward-data", p, t0);
+        t0 = hd_prof_now();
+        if (dw || db) backward_parts(p, NULL, dw, db, dout, inp, w, overwrite, head);
+        PROF_OP("conv backward-weights", p, t0);
+        return;
+    }
+    backward_parts(p, dinp, dw, db, dout, inp, w, overwrite, head);
 }
 
 void hd_conv3x3_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, float *dout,

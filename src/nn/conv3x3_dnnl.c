@@ -49,8 +49,10 @@ typedef struct dn {
     float *zero_bias, *dbias_buf;
     const float *last_src; /* the input of the last forward, held by src.prim */
     int share_src;         /* backward weights reads src in the forward's (reordered) format */
+    int share_ddst;        /* backward weights reads diff_dst in backward data's (reordered) format */
     int act_pass;          /* the forward has no post-op: the leaky ReLU is a pass of our own */
     int fwd_wino;          /* the forward took the Winograd kernels */
+    int bf16;              /* inputs and weights in bf16 (FP32 outputs and accumulation) */
     dnnl_alg_kind_t bd_alg; /* the algorithm backward data took */
     /* backward data onto the first c_head input channels only (hd_conv3x3_plan_dinp_head), one
      * image per call: weights w(:, :c_head) seen through a strided view */
@@ -104,6 +106,14 @@ static hd_status dn_init(void)
 {
     pthread_once(&engine_once, engine_make);
     return engine ? HD_OK : hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no CPU engine");
+}
+
+/* oneDNN runs bf16 convolutions with JIT kernels from avx512_core_bf16 (the ISA values nest:
+ * each includes the bits of those it extends). */
+static int bf16_isa(void)
+{
+    unsigned isa = (unsigned)dnnl_get_effective_cpu_isa(), need = (unsigned)dnnl_cpu_isa_avx512_core_bf16;
+    return (isa & need) == need;
 }
 
 static dnnl_status_t attr_user_scratch(dnnl_primitive_attr_t *attr)
@@ -169,13 +179,14 @@ static const dnnl_memory_desc_t *qmd(const_dnnl_primitive_desc_t pd, dnnl_query_
     return dnnl_primitive_desc_query_md(pd, what, 0);
 }
 
-hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
+/* Builds the plan with the primitives' inputs (src, weights, diff_dst) in data type lp (f32, or
+ * bf16: oneDNN's bf16 kernels, which take FP32 for every output and accumulate in FP32). */
+static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
 {
-    hd_status st = dn_init();
-    if (st != HD_OK) return st;
     dn *d = hd_calloc(1, sizeof *d);
     if (!d) return HD_ERR_NOMEM;
     p->dnnl = d;
+    d->bf16 = lp == dnnl_bf16;
     if (dnnl_stream_create(&d->stream, engine, dnnl_stream_default_flags) != dnnl_success) {
         d->stream = NULL;
         hd_conv3x3_dnnl_free(p);
@@ -191,33 +202,45 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     dnnl_dims_t strides = {p->stride, p->stride}, pad_l = {1, 1};
     /* right padding so that Ho = (H + 1 + pad_r - 3) / stride + 1 exactly */
     dnnl_dims_t pad_r = {(p->Ho - 1) * p->stride + 3 - p->H - 1, (p->Wo - 1) * p->stride + 3 - p->W - 1};
-    dnnl_memory_desc_t s_any, w_any, d_any, b_md, s_user, w_user, d_user;
-    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&w_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
+    /* the primitives' tensors: inputs (src, weights, diff_dst: *_lp) in lp, outputs (dst,
+     * diff_src: *_any; diff_weights: dw_any) and the bias in f32; in FP32 both are the same */
+    dnnl_memory_desc_t s_any, d_any, s_lp, w_lp, d_lp, dw_any, b_md, s_user, w_user, d_user;
     dnnl_format_tag_t act_tag = p->nc16 ? dnnl_nChw16c : dnnl_nchw;
+    dnnl_format_tag_t act_any = p->nc16 ? dnnl_nChw16c : dnnl_format_tag_any; /* nc16: no reorders of layout */
+    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&s_lp, 4, sdims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&d_lp, 4, ddims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&w_lp, 4, wdims, lp, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&dw_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
     DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, act_tag));
     DN(dnnl_memory_desc_init_by_tag(&w_user, 4, wdims, dnnl_f32, dnnl_oihw));
     DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, act_tag));
-    if (p->nc16) s_any = s_user, d_any = d_user; /* no reorders of activations */
 
     const char *direct_env = getenv("HD_CONV_DIRECT");
-    int wino = p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
-               p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
+    int wino_shape = p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
+                     p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
+    int wino = lp == dnnl_f32 && wino_shape;
+    /* backward weights in bf16 lost to FP32 (Winograd or direct) on this machine's Zen 5 (1.7x
+     * slower per step, docs/performance.md) where forward and backward data gained (2x, 1.25x): a
+     * bf16 plan computes its weight gradients in FP32 unless HD_BF16_WEIGHT_GRAD=1 */
+    const char *wg_env = getenv("HD_BF16_WEIGHT_GRAD");
+    int bw_f32 = lp != dnnl_f32 && !(wg_env && strcmp(wg_env, "1") == 0);
+    dnnl_primitive_desc_t hint32 = NULL; /* the FP32 forward backward weights then takes as its hint */
 
     /* forward: dst = act(conv(src, w) + b); Winograd without the post-op, else direct with it */
     dnnl_convolution_desc_t fdesc, ddesc, wdesc;
     DN(attr_user_scratch(&fattr));
-    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, &s_any,
-                                                   &w_any, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
+    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, &s_lp,
+                                                   &w_lp, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
         dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL) == dnnl_success) {
         d->act_pass = p->act == HD_ACT_LRELU;
         d->fwd_wino = 1;
     } else {
         fpd = NULL;
-        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any,
-                                              &w_any, &b_md, &d_any, strides, pad_l, pad_r));
+        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_lp,
+                                              &w_lp, &b_md, &d_any, strides, pad_l, pad_r));
         if (p->act == HD_ACT_LRELU) {
             DN(dnnl_post_ops_create(&po));
             DN(dnnl_post_ops_append_eltwise(po, 1.0f, dnnl_eltwise_relu, p->slope, 0.0f)); /* x > 0 ? x : alpha x */
@@ -234,11 +257,11 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
 
     /* backward data: dsrc = conv^T(ddst, w) */
     DN(attr_user_scratch(&dattr));
-    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, &s_any, &w_any, &d_any,
+    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, &s_any, &w_lp, &d_lp,
                                                           strides, pad_l, pad_r) != dnnl_success ||
         dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd) != dnnl_success) {
         dpd = NULL;
-        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_any, &d_any,
+        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_lp, &d_lp,
                                                     strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd));
         d->bd_alg = dnnl_convolution_direct;
@@ -255,13 +278,30 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
 
     /* backward weights: dw = ddst x src, db = sum ddst */
     DN(attr_user_scratch(&wattr));
-    if (!wino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, &s_any, &w_any, &b_md,
-                                                             &d_any, strides, pad_l, pad_r) != dnnl_success ||
-        dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd) != dnnl_success) {
+    const dnnl_memory_desc_t *ws = &s_lp, *wd = &d_lp;
+    const_dnnl_primitive_desc_t whint = fpd;
+    int wwino = wino;
+    if (bw_f32) {
+        dnnl_convolution_desc_t hdesc;
+        ws = &s_any, wd = &d_any, wwino = wino_shape;
+        dnnl_alg_kind_t halg = wwino ? dnnl_convolution_winograd : dnnl_convolution_direct;
+        if (dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, halg, &s_any, &dw_any, &b_md, &d_any,
+                                               strides, pad_l, pad_r) != dnnl_success ||
+            dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL) != dnnl_success) {
+            hint32 = NULL, wwino = 0;
+            DN(dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any, &dw_any,
+                                                  &b_md, &d_any, strides, pad_l, pad_r));
+            DN(dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL));
+        }
+        whint = hint32;
+    }
+    if (!wwino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, ws, &dw_any, &b_md,
+                                                              wd, strides, pad_l, pad_r) != dnnl_success ||
+        dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint) != dnnl_success) {
         wpd = NULL;
-        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, &s_any, &w_any, &b_md,
-                                                       &d_any, strides, pad_l, pad_r));
-        DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, fpd));
+        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, ws, &dw_any, &b_md, wd, strides,
+                                                       pad_l, pad_r));
+        DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint));
     }
     NOT_REFERENCE(wpd, "backward weights");
     DN(dnnl_primitive_create(&d->bwd_weights, wpd));
@@ -270,6 +310,8 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     DN(make_view(&d->bw_ddst, &d_user, qmd(wpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
     DN(make_view(&d->bw_dw, &w_user, qmd(wpd, dnnl_query_diff_weights_md), 0, 1, &scratch));
     d->share_src = d->src.reorder && dnnl_memory_desc_equal(qmd(fpd, dnnl_query_src_md), qmd(wpd, dnnl_query_src_md));
+    d->share_ddst = d->bd_ddst.reorder &&
+                    dnnl_memory_desc_equal(qmd(dpd, dnnl_query_diff_dst_md), qmd(wpd, dnnl_query_diff_dst_md));
 
     d->zero_bias = hd_calloc((size_t)p->OC, sizeof(float));
     d->dbias_buf = hd_calloc((size_t)p->OC, sizeof(float));
@@ -284,6 +326,7 @@ hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
     dnnl_primitive_desc_destroy(fpd);
     dnnl_primitive_desc_destroy(dpd);
     dnnl_primitive_desc_destroy(wpd);
+    if (hint32) dnnl_primitive_desc_destroy(hint32);
     dnnl_primitive_attr_destroy(fattr);
     dnnl_primitive_attr_destroy(dattr);
     dnnl_primitive_attr_destroy(wattr);
@@ -293,12 +336,46 @@ fail:
     if (fpd) dnnl_primitive_desc_destroy(fpd);
     if (dpd) dnnl_primitive_desc_destroy(dpd);
     if (wpd) dnnl_primitive_desc_destroy(wpd);
+    if (hint32) dnnl_primitive_desc_destroy(hint32);
     if (fattr) dnnl_primitive_attr_destroy(fattr);
     if (dattr) dnnl_primitive_attr_destroy(dattr);
     if (wattr) dnnl_primitive_attr_destroy(wattr);
     if (po) dnnl_post_ops_destroy(po);
     hd_conv3x3_dnnl_free(p);
     return HD_ERR_ARG;
+}
+
+hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)
+{
+    hd_status st = dn_init();
+    if (st != HD_OK) return st;
+    if (p->bf16) {
+        /* bf16 where oneDNN has JIT kernels for it (avx512_core_bf16 and up), else FP32 */
+        if (bf16_isa() && plan_typed(p, dnnl_bf16) == HD_OK) return HD_OK;
+        hd_clear_error();
+        p->bf16 = 0;
+    }
+    return plan_typed(p, dnnl_f32);
+}
+
+int hd_conv3x3_dnnl_bf16_available(void) { return dn_init() == HD_OK && bf16_isa(); }
+
+const char *hd_conv3x3_dnnl_isa(void)
+{
+    if (dn_init() != HD_OK) return "none";
+    switch (dnnl_get_effective_cpu_isa()) {
+    case dnnl_cpu_isa_sse41: return "sse41";
+    case dnnl_cpu_isa_avx: return "avx";
+    case dnnl_cpu_isa_avx2: return "avx2";
+    case dnnl_cpu_isa_avx512_mic: return "avx512_mic";
+    case dnnl_cpu_isa_avx512_mic_4ops: return "avx512_mic_4ops";
+    case dnnl_cpu_isa_avx512_core: return "avx512_core";
+    case dnnl_cpu_isa_avx512_core_vnni: return "avx512_core_vnni";
+    case dnnl_cpu_isa_avx512_core_bf16: return "avx512_core_bf16";
+    case dnnl_cpu_isa_avx512_core_amx: return "avx512_core_amx";
+    case dnnl_cpu_isa_avx2_vnni: return "avx2_vnni";
+    default: return "other";
+    }
 }
 
 hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head)
@@ -364,6 +441,8 @@ fail:
 
 int hd_conv3x3_dnnl_winograd(const hd_conv3x3 *p) { return p->dnnl && ((const dn *)p->dnnl)->fwd_wino; }
 
+int hd_conv3x3_dnnl_is_bf16(const hd_conv3x3 *p) { return p->dnnl && ((const dn *)p->dnnl)->bf16; }
+
 int hd_conv3x3_dnnl_head(const hd_conv3x3 *p) { return p->dnnl ? ((const dn *)p->dnnl)->c_head : 0; }
 
 
@@ -425,6 +504,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
                               const float *inp, const float *w, int overwrite)
 {
     dn *d = p->dnnl;
+    dnnl_memory_t ddst_done = NULL; /* diff_dst already reordered by backward data, in this call */
     if (dinp) {
         /* dsrc = conv^T(ddst, w); then dinp = dsrc or dinp += dsrc */
         dnnl_memory_t ddst = view_in(d, &d->bd_ddst, dout), wt = view_in(d, &d->bd_w, w), dsrc;
@@ -438,6 +518,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_exec_arg_t args[4] = {{DNNL_ARG_DIFF_DST, ddst}, {DNNL_ARG_WEIGHTS, wt},
                                    {DNNL_ARG_DIFF_SRC, dsrc}, {DNNL_ARG_SCRATCHPAD, d->scratch}};
         dnnl_primitive_execute(d->bwd_data, d->stream, 4, args);
+        if (d->share_ddst) ddst_done = ddst;
         if (!p->nc16) {
             /* a reorder with a sum post-op: dinp += dsrc */
             dnnl_memory_set_data_handle(d->bd_dsrc.user, dinp);
@@ -457,7 +538,7 @@ void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, 
         dnnl_memory_t src;
         if (d->share_src && d->last_src == inp) src = d->src.prim; /* the forward's copy */
         else src = view_in(d, &d->bw_src, inp);
-        dnnl_memory_t ddst = view_in(d, &d->bw_ddst, dout);
+        dnnl_memory_t ddst = ddst_done ? ddst_done : view_in(d, &d->bw_ddst, dout);
         dnnl_exec_arg_t args[5] = {{DNNL_ARG_SRC, src}, {DNNL_ARG_DIFF_DST, ddst},
                                    {DNNL_ARG_DIFF_WEIGHTS, d->bw_dw.prim}, {DNNL_ARG_DIFF_BIAS, d->dbias},
                                    {DNNL_ARG_SCRATCHPAD, d->scratch}};

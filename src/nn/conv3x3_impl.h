@@ -14,6 +14,7 @@ struct hd_conv3x3 {
     float slope;
     hd_conv_path path; /* the path actually taken: AUTO means oneDNN */
     int nc16;          /* tensors in the blocked layout nc16 (oneDNN only) */
+    int bf16;          /* oneDNN in bf16 (asked for at plan time; cleared where it is not had) */
     size_t in_n, out_n; /* floats of inp and out, with nc16 padding */
     int band_rows;     /* portable: output rows per im2col band */
     float *col;        /* portable: (9 C, band_rows Wo) */
@@ -33,6 +34,9 @@ void hd_conv3x3_dnnl_forward(hd_conv3x3 *p, float *out, const float *inp, const 
 void hd_conv3x3_dnnl_backward(hd_conv3x3 *p, float *dinp, float *dw, float *db, const float *dout,
                               const float *inp, const float *w, int overwrite);
 int hd_conv3x3_dnnl_winograd(const hd_conv3x3 *p); /* the forward runs Winograd */
+int hd_conv3x3_dnnl_is_bf16(const hd_conv3x3 *p);  /* the plan runs bf16 */
+int hd_conv3x3_dnnl_bf16_available(void);          /* oneDNN has bf16 JIT kernels on this CPU */
+const char *hd_conv3x3_dnnl_isa(void);             /* oneDNN's instruction set on this CPU */
 /* The backward-data primitive onto the first c_head input channels (nc16 plans). */
 hd_status hd_conv3x3_dnnl_plan_head(hd_conv3x3 *p, int c_head);
 int hd_conv3x3_dnnl_head(const hd_conv3x3 *p); /* c_head, or 0 */

@@ -45,6 +45,30 @@ void hd_conv3x3_backward(hd_conv3x3 *plan, float *dinp, float *dw, float *db, fl
 void hd_conv3x3_backward_into(hd_conv3x3 *plan, float *dinp, float *dw, float *db, float *dout,
                               const float *out, const float *inp, const float *w);
 
+/* ---- precision of the oneDNN convolutions (conv_precision.c). Process-wide, read when a plan is
+ * made: FP32 (the default) or bf16, oneDNN's bf16 kernels where the CPU has them (avx512_bf16):
+ * the inputs, weights and output gradients of each convolution rounded to bf16, every product
+ * summed and every output (activations, input and weight gradients) written in FP32, so master
+ * weights, Adam and the losses stay FP32. A plan asked for bf16 where the CPU lacks it runs FP32.
+ * The portable and naive paths are always FP32. */
+typedef enum hd_precision {
+    HD_PRECISION_FP32 = 0,
+    HD_PRECISION_BF16, /* where available */
+    HD_PRECISION_AUTO  /* bf16 where available: the same as BF16, named for option parsing */
+} hd_precision;
+void hd_conv_set_precision(hd_precision p);
+/* What plans made now get: HD_PRECISION_BF16 only where it was asked for and is available. */
+hd_precision hd_conv_precision(void);
+/* 1 when oneDNN runs bf16 convolutions with its JIT kernels on this CPU. */
+int hd_conv_bf16_available(void);
+/* The instruction set oneDNN uses on this CPU ("avx512_core_bf16", "avx2", ...), or "none"
+ * (built without oneDNN). */
+const char *hd_conv_isa(void);
+/* Parses "fp32", "bf16" or "auto" (HD_ERR_ARG naming `what` otherwise). */
+hd_status hd_precision_parse(const char *s, const char *what, hd_precision *p);
+/* The precision a plan runs: "bf16" or "fp32". */
+const char *hd_conv3x3_precision(const hd_conv3x3 *plan);
+
 /* ---- the blocked channel layout of the oneDNN path ("nc16", oneDNN's nChw16c): a tensor
  * (B, C, H, W) is stored as (B, ceil(C / 16), H, W, 16), channel c at block c / 16, lane c % 16;
  * the lanes past C are zero. Layers of the Common-Net run in it end to end, without reorders. */

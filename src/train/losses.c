@@ -270,6 +270,7 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
     int B = net->B, HW = net->H * net->W;
     L->batch = batch;
     L->target = target;
+    hd_prof_mark pm = hd_prof_now(); /* the benchmarks' profile (core.h): laps */
     for (int b = 0; b < B; b++) {
         const float *N = net->normal + (size_t)b * 3 * HW, *A = net->albedo + (size_t)b * 3 * HW;
         const float *m = batch->mask + (size_t)b * HW, *l = net->light + (size_t)b * HD_SH_COEFFS;
@@ -278,6 +279,7 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         hd_sh_shading_map(N, NULL, HW, l, s);
         for (int c = 0; c < 3; c++)
             for (int p = 0; p < HW; p++) r[(size_t)c * HW + p] = m[p] * A[(size_t)c * HW + p] * s[p];
+        hd_prof_lap("shade and render", &pm);
         /* l_hat = argmin sum_p m_p (b(n_p).l - S_p)^2 with n = N_bar (stage 1) or N (stage 2), detached */
         if (L->hold_light_hat) continue;
         if (batch->has_light && batch->has_light[b]) { /* --light-target gt */
@@ -297,13 +299,18 @@ hd_status hd_losses_prepare(hd_losses *L, const hd_pair_batch *batch, hd_light_t
         for (int k = 0; k < HD_SH_COEFFS; k++)
             if (!isfinite(L->light_hat[b * HD_SH_COEFFS + k]))
                 return hd_fail(HD_ERR_NUMERIC, "the least-squares light target of image %d is not finite", b);
+        hd_prof_lap("l_hat fit", &pm);
     }
     hd_status st = fit_pair_lights(L);
+    hd_prof_lap("fit-pair lights", &pm);
     if (st != HD_OK) return st;
     /* the shading prior's targets, on N_bar or (prior_predicted) on N, detached; a gradient check
      * holds them with light_hat */
-    if (!(L->hold_light_hat && L->prior_predicted)) return prior_targets(L);
-    return HD_OK;
+    if (!(L->hold_light_hat && L->prior_predicted)) {
+        st = prior_targets(L);
+        hd_prof_lap("shading prior targets", &pm);
+    }
+    return st;
 }
 
 /* Propagates L->d_shade (dL/ds(N, l)) into d_normal and d_light, then clears it.
@@ -649,18 +656,26 @@ double hd_losses_generator(hd_losses *L, const hd_loss_weights *w, double terms[
 {
     float s[HD_LOSS_TERMS];
     for (int k = 0; k < HD_LOSS_TERMS; k++) s[k] = grad ? w->w[k] : 0.0f;
-    terms[HD_LOSS_REC] = hd_loss_reconstruction(L, s[HD_LOSS_REC]);
-    terms[HD_LOSS_ALBEDO] = hd_loss_albedo_consistency(L, s[HD_LOSS_ALBEDO]);
-    terms[HD_LOSS_SMOOTH] = hd_loss_shading_smoothness(L, s[HD_LOSS_SMOOTH]);
-    terms[HD_LOSS_NORMAL] = hd_loss_normal_prior(L, s[HD_LOSS_NORMAL]);
-    terms[HD_LOSS_LIGHT] = hd_loss_light(L, s[HD_LOSS_LIGHT]);
-    terms[HD_LOSS_SREC] = hd_loss_shading_reconstruction(L, s[HD_LOSS_SREC]);
-    terms[HD_LOSS_ADV] = hd_loss_adversarial(L, s[HD_LOSS_ADV]);
-    terms[HD_LOSS_ALBEDO_GT] = hd_loss_albedo_supervised(L, s[HD_LOSS_ALBEDO_GT]);
-    terms[HD_LOSS_SHADING_MEAN] = hd_loss_shading_mean(L, s[HD_LOSS_SHADING_MEAN]);
-    terms[HD_LOSS_SHADING_PRIOR] = hd_loss_shading_prior(L, s[HD_LOSS_SHADING_PRIOR]);
-    terms[HD_LOSS_LIGHT_PAIR] = hd_loss_light_pair(L, s[HD_LOSS_LIGHT_PAIR]);
-    terms[HD_LOSS_FIT_PAIR] = hd_loss_fit_pair(L, s[HD_LOSS_FIT_PAIR]);
+    /* each term a phase of the benchmarks' profile (core.h) */
+#define TERM(k, fn)                      \
+    do {                                 \
+        hd_prof_begin(hd_loss_names[k]); \
+        terms[k] = fn(L, s[k]);          \
+        hd_prof_end();                   \
+    } while (0)
+    TERM(HD_LOSS_REC, hd_loss_reconstruction);
+    TERM(HD_LOSS_ALBEDO, hd_loss_albedo_consistency);
+    TERM(HD_LOSS_SMOOTH, hd_loss_shading_smoothness);
+    TERM(HD_LOSS_NORMAL, hd_loss_normal_prior);
+    TERM(HD_LOSS_LIGHT, hd_loss_light);
+    TERM(HD_LOSS_SREC, hd_loss_shading_reconstruction);
+    TERM(HD_LOSS_ADV, hd_loss_adversarial);
+    TERM(HD_LOSS_ALBEDO_GT, hd_loss_albedo_supervised);
+    TERM(HD_LOSS_SHADING_MEAN, hd_loss_shading_mean);
+    TERM(HD_LOSS_SHADING_PRIOR, hd_loss_shading_prior);
+    TERM(HD_LOSS_LIGHT_PAIR, hd_loss_light_pair);
+    TERM(HD_LOSS_FIT_PAIR, hd_loss_fit_pair);
+#undef TERM
     double total = 0;
     for (int k = 0; k < HD_LOSS_TERMS; k++) total += (double)w->w[k] * terms[k];
     return total;

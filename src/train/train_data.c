@@ -270,7 +270,9 @@ static void load_batch(hd_loader *L)
 
 static void *loader_main(void *arg)
 {
+    hd_prof_begin("data loading (loader thread)"); /* the benchmarks' profile (core.h) */
     load_batch(arg);
+    hd_prof_end();
     return NULL;
 }
 
@@ -286,7 +288,9 @@ void hd_loader_start(hd_loader *L, long iteration)
 
 hd_status hd_loader_wait(hd_loader *L, void (*warn)(const char *))
 {
+    hd_prof_begin("data wait");
     if (L->running) pthread_join(L->thread, NULL);
+    hd_prof_end();
     L->running = 0;
     if (L->warnings_dropped) {
         size_t len = strlen(L->warnings);

@@ -158,16 +158,22 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
         if (disc_grad) memset(net->disc_grads, 0, nd * sizeof(float));
         t->chunk = chunk_of(t, c);
         memcpy(net->input, t->chunk.image, n * sizeof(float));
+        hd_prof_begin("forward"); /* phases of the benchmarks' profile (core.h) */
         hd_net_forward(net);
+        hd_prof_end();
         hd_net_zero_act_grad(net);
+        hd_prof_begin("loss targets");
         hd_status s = hd_losses_prepare(&t->losses, &t->chunk, t->stage == HD_TRAIN_STAGE_1 ? HD_LIGHT_FROM_COARSE : HD_LIGHT_FROM_PREDICTED);
+        hd_prof_end();
         if (s != HD_OK) {
             char why[400];
             snprintf(why, sizeof why, "%s", hd_error());
             return hd_fail(s, "the losses' least-squares targets (l_hat, the shading prior) failed at iteration %ld: %s", t->iteration + 1, why);
         }
         double terms[HD_LOSS_TERMS];
+        hd_prof_begin("losses");
         r->total += hd_losses_generator(&t->losses, &w, terms, grad);
+        hd_prof_end();
         for (int k = 0; k < HD_LOSS_TERMS; k++) {
             if (!isfinite(terms[k]))
                 return hd_fail(HD_ERR_NUMERIC, "loss term '%s' is %s at iteration %ld", hd_loss_names[k],
@@ -175,11 +181,17 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
             r->terms[k] += terms[k] * part;
         }
         if (grad) {
+            hd_prof_begin("backward");
             hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+            hd_prof_end();
+            hd_prof_begin("gradient sums");
             add_to(t->grad_sum, net->grads, ng);
+            hd_prof_end();
         }
         if (!disc) continue;
+        hd_prof_begin("discriminator update");
         double d = hd_loss_discriminator(&t->losses, disc_grad ? part : 0.0f);
+        hd_prof_end();
         if (!isfinite(d))
             return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(d) ? "NaN" : "infinite",
                            t->iteration + 1);
@@ -190,10 +202,12 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
         hd_status s = reduce_over_ranks(t, r, ng + nd);
         if (s != HD_OK) return s;
     }
+    hd_prof_begin("gradient sums");
     if (grad)
         for (size_t i = 0; i < ng; i++) net->grads[i] = (float)t->grad_sum[i];
     if (disc_grad)
         for (size_t i = 0; i < nd; i++) net->disc_grads[i] = (float)t->grad_sum[ng + i];
+    hd_prof_end();
     return HD_OK;
 }
 
@@ -230,12 +244,14 @@ hd_status hd_trainer_step(hd_trainer *t, hd_step_result *r, const char *dump_pat
     const int lnet_only = hd_trainer_phase(t, t->iteration) == HD_TRAIN_LNET;
     size_t first = lnet_only ? t->lnet_offset : 0;
     float lr = lnet_only && t->lnet_lr > 0 ? t->lnet_lr : t->lr; /* the discriminator keeps t->lr */
+    hd_prof_begin("adam");
     t->adam_t++;
     hd_adam_step(net->params + first, net->grads + first, t->adam_m + first, t->adam_v + first,
                  net->table.total - first, lr, HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->adam_t);
     t->disc_adam_t++;
     hd_adam_step(net->disc_params, net->disc_grads, t->disc_adam_m, t->disc_adam_v, net->disc_table.total, t->lr,
                  HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->disc_adam_t);
+    hd_prof_end();
     t->iteration++;
     return HD_OK;
 }
