@@ -65,6 +65,7 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define BG_CHROMA 0.015f
 #define BG_LOG_LUM 0.7f
 #define BG_REGION_BLUR 0.06f /* eye distances */
+#define BG_EDGE_BLUR 0.04f
 
 void hd_head_free(hd_head *h)
 {
@@ -247,6 +248,8 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
         h->bg[i] = h->bg[i] > 0.5f && h->skin[i] < 0.5f ? 1.0f : 0.0f;
         h->hair[i] = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= HAIR_REACH_SKULL || rn <= HAIR_REACH_NECK);
     }
+    /* softened: the change fades over a few pixels at the person's outline rather than stopping */
+    if (st == HD_OK) st = hd_field_blur(h->bg, h->w, h->h, BG_EDGE_BLUR * h->frame.e);
     const float sigma = HEAD_MASK_BLUR * h->frame.e;
     if (st == HD_OK) st = hd_field_blur(h->skin, h->w, h->h, sigma);
     if (st == HD_OK) st = hd_field_blur(h->hair, h->w, h->h, sigma);
