@@ -737,7 +737,12 @@ double hd_light_difference(const float a[HD_SH_COEFFS], const float b[HD_SH_COEF
  * means over the presets of chroma, detail, glow, seam and lum (the face's mean luminance ratio),
  * self (the MAE of the own-light result against the input over the pixels any preset changed),
  * and, on a person's first photo, light (hd_light_difference of the first two photos' lights). */
-enum { HD_PM_CHROMA, HD_PM_DETAIL, HD_PM_GLOW, HD_PM_SEAM, HD_PM_SELF, HD_PM_LIGHT, HD_PM_LUM, HD_PHOTO_METRICS };
+/* coverage: the sum over the presets of the change on the skin in a ring outside the face's outline
+ * over the sum of the change on its cheeks (0: a mask, about 1: the whole head); band: the mean
+ * over the presets of the forehead's largest jump of the change over its median step (issue 36;
+ * src/eval/photo_coverage.c). */
+enum { HD_PM_CHROMA, HD_PM_DETAIL, HD_PM_GLOW, HD_PM_SEAM, HD_PM_SELF, HD_PM_LIGHT, HD_PM_LUM, HD_PM_COVERAGE,
+       HD_PM_BAND, HD_PHOTO_METRICS };
 enum { HD_PG_ALL, HD_PG_TUNING, HD_PG_HELDOUT };
 typedef struct hd_photo_row {
     char name[128];              /* PERSON/NAME */

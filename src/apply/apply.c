@@ -202,7 +202,7 @@ hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_im
 
 /* One job on face f of a photo (out is the photo's copy, with earlier faces already changed). */
 static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, const float *feather,
-                           hd_relight_rule rule, const face_rule *fr, const job *jb)
+                           const hd_head *head, hd_relight_rule rule, const face_rule *fr, const job *jb)
 {
     hd_image tex_out = {0}, field = {0}, warped = {0}, coverage = {0};
     hd_status st;
@@ -218,6 +218,7 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     const size_t P = (size_t)warped.width * (size_t)warped.height;
     for (int c = 0; st == HD_OK && c < warped.channels; c++)
         st = hd_field_fill(warped.data + (size_t)c * P, coverage.data, warped.width, warped.height);
+    if (st == HD_OK) st = hd_head_apply(head, fr->source, jb->target, &warped); /* beyond the mesh (head.c) */
     if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out);
     hd_image_free(&field);
     hd_image_free(&warped);
@@ -247,9 +248,14 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     if (!feather) return HD_ERR_NOMEM;
     job jb = {target, {{{0}}}, brightness, photo};
     face_rule fr = {{0}, 0.0f};
+    hd_head head;
+    memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
     if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK) st = photo_job(f, d, feather, HD_RULE_RATIO, &fr, &jb);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, &head);
+    if (st == HD_OK) st = hd_head_weight(&head, feather);
+    if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb);
+    hd_head_free(&head);
     free(feather);
     return st;
 }
@@ -283,9 +289,14 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         st = hd_model_decompose(model, &f->texture, 1, &d);
         if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
+        hd_head head;
+        memset(&head, 0, sizeof head);
         if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
+        if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, &head);
+        if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
-        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, q->rule, &fr, &jobs[i]);
+        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i]);
+        hd_head_free(&head);
         hd_decomposition_free(&d);
     }
     free(jobs);

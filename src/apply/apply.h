@@ -28,6 +28,31 @@ hd_status hd_field_fill_holes(float *inside, int w, int h);
 /* The smoothstep 3t^2 - 2t^3 of t clamped to [0, 1], the feathers' ramp. */
 float hd_field_smoothstep(float t);
 
+/* A face's frame in a photo (forehead.c): the eyes' midpoint (mx, my), the eye distance e and the
+ * unit chin-to-forehead axis (ux, uy), in photo pixels; hd_face_frame_of gives 0 when the
+ * landmarks give none (eyes closer than 2 pixels, the chin on the forehead). Pixel (x, y) lies
+ * hd_face_height eye distances above the eye line and hd_face_side across the face's axis. */
+typedef struct hd_face_frame {
+    float mx, my, e, ux, uy;
+} hd_face_frame;
+int hd_face_frame_of(const hd_aligned_face *f, hd_face_frame *fr);
+static inline float hd_face_side(const hd_face_frame *fr, int x, int y)
+{
+    return ((x + 0.5f - fr->mx) * -fr->uy + (y + 0.5f - fr->my) * fr->ux) / fr->e;
+}
+static inline float hd_face_height(const hd_face_frame *fr, int x, int y)
+{
+    return ((x + 0.5f - fr->mx) * fr->ux + (y + 0.5f - fr->my) * fr->uy) / fr->e;
+}
+/* The skin features (forehead.c), NFEAT planes of w x h each, from colours rgb (3 planes of w x h,
+ * blurred in place): chroma r and chroma g and log luminance of the colours blurred by `smooth`
+ * pixels, and the texture: the mean absolute difference between the log luminance at about a
+ * pixel's scale and the blurred one, over the same blur (hair's strands score high, skin low). */
+enum { F_CHROMA_R, F_CHROMA_G, F_LOG_LUM, F_TEXTURE, NFEAT };
+hd_status hd_skin_features(float *rgb, int w, int h, float smooth, float *feat);
+/* Median and median absolute deviation of v[0..n) (n > 0; v is reordered). */
+void hd_median_mad(float *v, size_t n, float *med, float *mad);
+
 /* The region of face f in the photo that the change of light may reach (forehead.c): coverage
  * (where the face mesh lands, > 0.5 inside; photo-sized) grown from its upper edge into the pixels
  * above the brows that look like the face's skin (measured on its cheeks), up to `grow` eye
@@ -70,6 +95,40 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
  * each face. */
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
                         hd_brightness brightness, hd_source_light source, hd_image *photo);
+
+/* The change of light beyond the face mesh (head.c, docs/usage.md "The whole head"): per face, a
+ * head proxy posed by the mesh fit (an ellipsoid skull, a cylinder neck), its normals blended with
+ * the model's near the mesh, the skin and hair masks of a colour model seeded from the face, in a
+ * window (x0, y0, w, h) of the W x H photo. */
+typedef struct hd_head {
+    int W, H, x0, y0, w, h;
+    hd_face_frame frame;
+    float g;       /* the rule's guard */
+    float *normal; /* 3 planes of w x h: the model's normals near the mesh, the proxy's beyond */
+    float *proxy;  /* 3 planes: the proxy's alone (the hair's) */
+    float *mesh;   /* how much of the face's own field holds: 1 on the mesh, 0 beyond a band */
+    float *skin, *hair; /* soft masks, 0 .. 1 */
+    float *bg;          /* 1 where the colour is the background's (the photo's border) */
+    float *ws, *wh;     /* the skin's and the hair's weights (hd_head_weight) */
+    float *near;        /* 1 at the skin's edge, falling into the hair */
+} hd_head;
+/* Sets up face f's head (d: its decomposition, at the model's size; source: its own light; guard
+ * as hd_ratio_field's). Without a frame (degenerate landmarks) h stays empty, and hd_head_apply
+ * leaves the face's field alone. Free with hd_head_free. */
+hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                       const float source[HD_SH_COEFFS], float guard, hd_head *h);
+void hd_head_free(hd_head *h);
+/* The weights of face f over its head, once per face: weight (photo-sized) holds the face's own
+ * (hd_photo_face_weight) and becomes, in the head's window, the skin's (1 on the skin, the face's
+ * where the mesh's field holds: eyes, lips, brows) plus the hair's (a share, 0.5, where there is
+ * no skin); the background keeps 0. */
+hd_status hd_head_weight(hd_head *h, float *weight);
+/* Extends one job's field over the head, in place: the face's log-ratio field warped into the
+ * photo and filled (photo-sized, 1 or 3 planes), on the skin handed over to the ratio on the
+ * blended normals beyond the mesh, on the hair the ratio on the proxy's normals. target NULL:
+ * flat light. After hd_head_weight. */
+hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], const hd_light_rgb *target,
+                        hd_image *field);
 
 /* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,

@@ -38,8 +38,8 @@ static int cmp_float(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* Median and median absolute deviation of v[0..n) (n > 0; v is reordered). */
-static void median_mad(float *v, size_t n, float *med, float *mad)
+/* (apply.h) */
+void hd_median_mad(float *v, size_t n, float *med, float *mad)
 {
     qsort(v, n, sizeof *v, cmp_float);
     float m = v[n / 2];
@@ -49,12 +49,8 @@ static void median_mad(float *v, size_t n, float *med, float *mad)
     *mad = v[n / 2];
 }
 
-/* The skin features, NFEAT planes of n pixels each, from the window's colours rgb (3 planes of w x h):
- * chroma r and chroma g and log luminance of the colours blurred by `smooth` pixels, and the
- * texture: the mean absolute difference between the log luminance at about a pixel's scale and
- * the blurred one, over the same blur (hair's strands score high, skin low). */
-enum { F_CHROMA_R, F_CHROMA_G, F_LOG_LUM, F_TEXTURE, NFEAT };
-static hd_status features_of(float *rgb, int w, int h, float smooth, float *feat)
+/* (apply.h) */
+hd_status hd_skin_features(float *rgb, int w, int h, float smooth, float *feat)
 {
     const size_t n = (size_t)w * h;
     float *fine = feat + (size_t)F_TEXTURE * n;
@@ -105,17 +101,12 @@ static window window_of(const float *coverage, int W, int H, float margin)
     return (window){x0, y0, x1 - x0 + 1, y1 - y0 + 1};
 }
 
-/* The face's frame: the eyes' midpoint, the eye distance and the unit chin-to-forehead axis. */
-typedef struct face_frame {
-    float mx, my, e, ux, uy;
-} face_frame;
-
-/* The frame of face f; 0 when its landmarks give none (eyes closer than 2 pixels, chin on forehead). */
-static int frame_of(const hd_aligned_face *f, face_frame *fr)
+/* (apply.h) */
+int hd_face_frame_of(const hd_aligned_face *f, hd_face_frame *fr)
 {
     float eyes[2][2];
     hd_face_eye_centres((const float (*)[3])f->landmarks, eyes);
-    *fr = (face_frame){0.5f * (eyes[0][0] + eyes[1][0]), 0.5f * (eyes[0][1] + eyes[1][1]),
+    *fr = (hd_face_frame){0.5f * (eyes[0][0] + eyes[1][0]), 0.5f * (eyes[0][1] + eyes[1][1]),
                        hypotf(eyes[1][0] - eyes[0][0], eyes[1][1] - eyes[0][1]),
                        f->landmarks[FACE_FOREHEAD][0] - f->landmarks[FACE_CHIN][0],
                        f->landmarks[FACE_FOREHEAD][1] - f->landmarks[FACE_CHIN][1]};
@@ -125,17 +116,6 @@ static int frame_of(const hd_aligned_face *f, face_frame *fr)
     return 1;
 }
 
-/* Offset of photo pixel (x, y) across the face's axis, in eye distances. */
-static float side_of(const face_frame *fr, int x, int y)
-{
-    return ((x + 0.5f - fr->mx) * -fr->uy + (y + 0.5f - fr->my) * fr->ux) / fr->e;
-}
-
-/* Height of photo pixel (x, y) above the eye line, in eye distances. */
-static float height_of(const face_frame *fr, int x, int y)
-{
-    return ((x + 0.5f - fr->mx) * fr->ux + (y + 0.5f - fr->my) * fr->uy) / fr->e;
-}
 
 hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, const float *coverage, float grow,
                                float *region)
@@ -145,8 +125,8 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
     const int W = photo->width, H = photo->height;
     const size_t P = (size_t)W * (size_t)H;
     for (size_t p = 0; p < P; p++) region[p] = coverage[p] > 0.5f ? 1.0f : 0.0f;
-    face_frame fr;
-    if (!(grow > 0) || !frame_of(f, &fr)) return HD_OK;
+    hd_face_frame fr;
+    if (!(grow > 0) || !hd_face_frame_of(f, &fr)) return HD_OK;
     const float reach = grow * fr.e;
     const window win = window_of(coverage, W, H, reach + 4.0f * SMOOTH * fr.e + 2.0f);
     const size_t N = (size_t)win.w * (size_t)win.h;
@@ -162,7 +142,7 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
         for (int y = 0; y < win.h; y++)
             memcpy(rgb + (size_t)c * N + (size_t)y * win.w,
                    photo->data + (size_t)c * P + (size_t)(y + win.y0) * W + win.x0, (size_t)win.w * sizeof(float));
-    if (st == HD_OK) st = features_of(rgb, win.w, win.h, SMOOTH * fr.e, feat);
+    if (st == HD_OK) st = hd_skin_features(rgb, win.w, win.h, SMOOTH * fr.e, feat);
 
     /* the face's skin: medians and deviations over the mesh's cheeks and nose (the forehead may be
      * under a fringe); the texture is tested on one side only (smoother than the skin is skin) */
@@ -174,14 +154,14 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
         for (int y = 0; y < win.h; y++)
             for (int x = 0; x < win.w; x++) {
                 const int gx = x + win.x0, gy = y + win.y0;
-                const float h = height_of(&fr, gx, gy);
+                const float h = hd_face_height(&fr, gx, gy);
                 if (region[(size_t)gy * W + gx] > 0.5f && h >= SAMPLE_LOW && h <= SAMPLE_HIGH &&
-                    fabsf(side_of(&fr, gx, gy)) <= SAMPLE_SIDE)
+                    fabsf(hd_face_side(&fr, gx, gy)) <= SAMPLE_SIDE)
                     samples[n++] = feat[(size_t)k * N + (size_t)y * win.w + x];
             }
         if (n == 0) break;
         float mad;
-        median_mad(samples, n, &med[k], &mad);
+        hd_median_mad(samples, n, &med[k], &mad);
         tol[k] = TOL_MAD * mad + extra[k];
     }
 
@@ -193,7 +173,7 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
             const size_t i = (size_t)y * win.w + x;
             const int gx = x + win.x0, gy = y + win.y0;
             dist[i] = -1.0f;
-            if (region[(size_t)gy * W + gx] <= 0.5f || height_of(&fr, gx, gy) < GROW_FROM) continue;
+            if (region[(size_t)gy * W + gx] <= 0.5f || hd_face_height(&fr, gx, gy) < GROW_FROM) continue;
             if (!is_skin(feat, N, i, med, tol)) continue; /* a fringe over the mesh: no growth from it */
             dist[i] = 0.0f;
             seed[i] = (int)i;
@@ -209,7 +189,7 @@ hd_status hd_photo_face_region(const hd_aligned_face *f, const hd_image *photo, 
             const size_t q = (size_t)qy * win.w + qx;
             if (dist[q] >= 0.0f || region[(size_t)(qy + win.y0) * W + qx + win.x0] > 0.5f) continue;
             const float d = hypotf((float)(qx - sx), (float)(qy - sy));
-            if (d > reach || height_of(&fr, qx + win.x0, qy + win.y0) < GROW_FROM) continue;
+            if (d > reach || hd_face_height(&fr, qx + win.x0, qy + win.y0) < GROW_FROM) continue;
             if (!is_skin(feat, N, q, med, tol)) continue;
             dist[q] = d;
             seed[q] = s;
@@ -229,8 +209,8 @@ hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo,
         return hd_fail(HD_ERR_ARG, "relight: the feather needs a face, a photo and the face's coverage");
     const int W = photo->width, H = photo->height;
     const size_t P = (size_t)W * (size_t)H;
-    face_frame fr;
-    const int framed = frame_of(f, &fr);
+    hd_face_frame fr;
+    const int framed = hd_face_frame_of(f, &fr);
     const float e = framed ? fr.e : 0.0f, band = FEATHER_FACE * e > 2.0f ? FEATHER_FACE * e : 2.0f;
     hd_status st = hd_field_feather(coverage, W, H, band, weight);
     if (st != HD_OK || !framed) return st;
@@ -243,7 +223,7 @@ hd_status hd_photo_face_feather(const hd_aligned_face *f, const hd_image *photo,
     for (int y = 0; st == HD_OK && y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * W + x;
-            const float t = hd_field_smoothstep((height_of(&fr, x, y) - HAIRLINE_FROM) / (HAIRLINE_TO - HAIRLINE_FROM));
+            const float t = hd_field_smoothstep((hd_face_height(&fr, x, y) - HAIRLINE_FROM) / (HAIRLINE_TO - HAIRLINE_FROM));
             const float up = t * narrow[p];
             weight[p] = up > weight[p] ? up : weight[p];
         }

@@ -11,17 +11,19 @@
 #include "core/core.h"
 #include "io/dataset.h"
 #include "eval/eval_json.h"
+#include "eval/photo_coverage.h"
 #include "apply/apply.h"
 #include "mesh/mesh.h"
 
-static const char *const METRIC_NAMES[HD_PHOTO_METRICS] = {"chroma", "detail", "glow", "seam", "self", "light", "lum"};
+static const char *const METRIC_NAMES[HD_PHOTO_METRICS] = {"chroma", "detail", "glow", "seam", "self", "light", "lum",
+                                                                "coverage", "band"};
 
 const char *hd_photo_metric_name(int k) { return k >= 0 && k < HD_PHOTO_METRICS ? METRIC_NAMES[k] : "?"; }
 
-/* How bad a value is, larger worse: detail falls, glow and lum stray from 1 either way. */
+/* How bad a value is, larger worse: detail and coverage fall, glow and lum stray from 1 either way. */
 static double badness(int k, double v)
 {
-    if (k == HD_PM_DETAIL) return -v;
+    if (k == HD_PM_DETAIL || k == HD_PM_COVERAGE) return -v;
     if (k == HD_PM_GLOW || k == HD_PM_LUM) return fabs(log(v > 1e-9 ? v : 1e-9));
     return v;
 }
@@ -82,10 +84,19 @@ static int listed(char **ids, int n, const char *id)
     return 0;
 }
 
+/* What the head measures take of a photo: its face's landmarks and skin; sums of the coverage's
+ * parts and of the band over the presets (photo_coverage.c). */
+typedef struct head_sums {
+    const float (*landmarks)[3];
+    const unsigned char *skin;
+    double ring, face, band;
+    int rings, bands;
+} head_sums;
+
 /* Scores one relit picture against the input into sums (chroma, detail, glow, seam, lum) and
- * marks its changed pixels in `any`. */
+ * head (coverage, band), and marks its changed pixels in `any`. */
 static hd_status score_relit(const hd_image *input, const hd_image *relit, const float pupils[2][2], double *sums,
-                             unsigned char *any)
+                             head_sums *head, unsigned char *any)
 {
     unsigned char *changed = NULL;
     hd_status st = hd_photo_changed(input, relit, &changed, NULL);
@@ -97,6 +108,11 @@ static hd_status score_relit(const hd_image *input, const hd_image *relit, const
     if (!isfinite(seam)) st = hd_fail(HD_ERR_NOMEM, "photo metrics: out of memory");
     sums[HD_PM_SEAM] += seam;
     sums[HD_PM_LUM] += hd_photo_mean_lum_ratio(input, relit, changed);
+    double ring, face;
+    if (st == HD_OK) st = hd_photo_coverage_parts(input, relit, head->landmarks, head->skin, &ring, &face);
+    if (st == HD_OK && isfinite(ring) && isfinite(face)) head->ring += ring, head->face += face, head->rings++;
+    double band = st == HD_OK ? hd_photo_band(input, relit, head->landmarks, head->skin) : NAN;
+    if (isfinite(band)) head->band += band, head->bands++;
     size_t P = (size_t)input->width * (size_t)input->height;
     for (size_t p = 0; p < P; p++) any[p] |= changed[p];
     free(changed);
@@ -128,16 +144,23 @@ static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_samp
     if (!row->pupils_from_tem) hd_face_eye_centres((const float (*)[3])r.faces[0].landmarks, pupils);
     memcpy(light, r.face_light[0], sizeof r.face_light[0]);
     const size_t P = (size_t)photo.width * (size_t)photo.height;
-    unsigned char *any = hd_calloc(P ? P : 1, 1);
+    unsigned char *any = hd_calloc(P ? P : 1, 1), *skin = NULL;
     double sums[HD_PHOTO_METRICS] = {0};
     if (!any) st = HD_ERR_NOMEM;
-    for (int k = 0; k < HD_LIGHT_PRESETS && st == HD_OK; k++) st = score_relit(&photo, &r.relit[k], pupils, sums, any);
+    head_sums head = {(const float (*)[3])r.faces[0].landmarks, NULL, 0, 0, 0, 0, 0};
+    if (st == HD_OK) st = hd_photo_skin(&photo, head.landmarks, &skin);
+    head.skin = skin;
+    for (int k = 0; k < HD_LIGHT_PRESETS && st == HD_OK; k++)
+        st = score_relit(&photo, &r.relit[k], pupils, sums, &head, any);
     if (st == HD_OK) {
         for (int m = 0; m < HD_PHOTO_METRICS; m++) row->v[m] = sums[m] / HD_LIGHT_PRESETS;
         row->v[HD_PM_SELF] = hd_photo_mae(&photo, &r.self, any);
         row->v[HD_PM_LIGHT] = NAN; /* per person, filled by the caller */
+        row->v[HD_PM_COVERAGE] = head.rings && head.face > 0 ? head.ring / head.face : NAN;
+        row->v[HD_PM_BAND] = head.bands ? head.band / head.bands : NAN;
     }
     free(any);
+    free(skin);
     hd_apply_result_free(&r);
     hd_image_free(&photo);
     return st;

@@ -1,5 +1,5 @@
 /* contours.c: the closed contours of the face's parts over the 468 landmarks (MediaPipe's FaceMesh
- * indices: the eyes, the inner lips, the eyebrows) and their rasterisation in the canonical mesh's
+ * indices: the eyes, the inner lips, the eyebrows, the face's outline) and their rasterisation in the canonical mesh's
  * UV layout, the same for every aligned face. What src/apply's face regions and src/model's white
  * balance from the eyes stand on. */
 #include <math.h>
@@ -14,9 +14,12 @@ const int hd_contour_inner_lips[] = {78,  95,  88,  178, 87,  14,  317, 402, 318
                                      308, 415, 310, 311, 312, 13,  82,  81,  80,  191, -1};
 const int hd_contour_right_brow[] = {46, 53, 52, 65, 55, 107, 66, 105, 63, 70, -1};
 const int hd_contour_left_brow[] = {276, 283, 282, 295, 285, 336, 296, 334, 293, 300, -1};
+const int hd_contour_face_oval[] = {10,  338, 297, 332, 284, 251, 389, 356, 454, 323, 361, 288,
+                                    397, 365, 379, 378, 400, 377, 152, 148, 176, 149, 150, 136,
+                                    172, 58,  132, 93,  234, 127, 162, 21,  54,  103, 67,  109, -1};
 
-/* Even-odd point-in-polygon test of (x, y) against n vertices (px, py). */
-static int inside_polygon(const float *px, const float *py, int n, float x, float y)
+/* (mesh.h) */
+int hd_inside_polygon(const float *px, const float *py, int n, float x, float y)
 {
     int in = 0;
     for (int i = 0, j = n - 1; i < n; j = i++)
@@ -56,7 +59,7 @@ hd_status hd_mesh_contours_uv(const int *const *list, int count, float grow_shar
         for (int y = y0; y <= y1; y++)
             for (int x = x0; x <= x1; x++) {
                 float cx = x + 0.5f, cy = y + 0.5f;
-                int in = inside_polygon(px, py, n, cx, cy);
+                int in = hd_inside_polygon(px, py, n, cx, cy);
                 for (int i = 0, j = n - 1; !in && i < n; j = i++)
                     in = hd_segment_distance(cx, cy, px[j], py[j], px[i], py[i]) <= grow;
                 if (in) regions->data[(size_t)y * size + x] = 1.0f;

@@ -36,8 +36,13 @@ static inline float hd_segment_distance(float x, float y, float ax, float ay, fl
     float ex = ax + t * dx - x, ey = ay + t * dy - y;
     return sqrtf(ex * ex + ey * ey);
 }
+/* Even-odd point-in-polygon test of (x, y) against n vertices (px, py). */
+int hd_inside_polygon(const float *px, const float *py, int n, float x, float y);
 extern const int hd_contour_right_eye[], hd_contour_left_eye[], hd_contour_inner_lips[], hd_contour_right_brow[],
     hd_contour_left_brow[];
+/* The face's outline (FaceMesh's face oval: forehead top 10, round by the right cheek to the chin
+ * 152 and back), the edge of the face proper that src/eval's coverage measures outside of. */
+extern const int hd_contour_face_oval[];
 /* Rasterises contours list[0..count) of the canonical mesh (hd_mesh_canonical) in its UV layout at
  * size x size: 1 at the texel centres inside a contour or within grow_share x size texels of one,
  * 0 elsewhere. */

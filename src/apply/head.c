@@ -1,0 +1,479 @@
+/* head.c: the change of light beyond the face mesh (issue 36; docs/usage.md, "The whole head"). The
+ * mesh covers the face proper; the ears, the temples, the forehead above the mesh, the jaw's edge,
+ * the neck and the hair kept the old light, so a relit face read as a mask. Here a head proxy posed
+ * by the mesh fit (hd_aligned_face's similarity: an ellipsoid for the skull, ears included, and a
+ * vertical cylinder for the neck, in the canonical mesh's centimetres) gives a normal to every
+ * pixel of the head and neck; near the mesh the model's normals (warped into the photo and
+ * extended smoothly past its edge) are blended into the proxy's, so the change is continuous across
+ * the mesh's edge. The rule's ratio is taken on those normals, and applied:
+ *   - on the skin (a colour model seeded from the face's cheeks, forehead.c's features, within the
+ *     proxy's silhouette grown a little) with the whole change;
+ *   - on the hair (not skin, not the background's colours, within the skull's silhouette grown a
+ *     little, or the neck's) with a share (HEAD_HAIR_STRENGTH) of the change of the proxy's normals alone:
+ *     hair is not skin and takes no fill from the face (also where a fringe lies over the mesh);
+ *   - elsewhere (the background) not at all: those pixels keep the input bit for bit.
+ * Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
+ * within HEAD_MESH_BAND eye distances outside the mesh's edge. A colour model is a first step:
+ * a segmentation network for the person and the hair (src/graph) is the issue's next one. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "apply/apply.h"
+
+/* The proxy, in the canonical mesh's frame (cm; x right, y up, z toward the viewer): the skull's
+ * centre and semi-axes (through the forehead's top, landmark 10, and the face's sides at the ears,
+ * 234 and 454, with a head 19.6 cm long and 21 cm tall), the neck's axis (vertical, through x = 0,
+ * z = NECK_Z), radius and top. */
+static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 9.8f};
+#define NECK_Z -4.0f
+#define NECK_R 5.5f
+#define NECK_TOP -3.0f
+/* How far the change reaches beyond the proxy's silhouette, as its normalised radius (1: on it). */
+#define SKIN_REACH_SKULL 1.25f /* the ears, a fuller face than the proxy */
+#define SKIN_REACH_NECK 1.5f
+#define HAIR_REACH_SKULL 1.15f
+#define HAIR_REACH_NECK 1.0f
+/* Bands and blurs, in eye distances. */
+#define HEAD_MESH_BAND 0.8f    /* the face's own field hands over to the head's over this band outside the mesh */
+#define HEAD_NORMAL_BAND 0.6f  /* the model's normals hand over to the proxy's over this band */
+#define HEAD_FIELD_BLUR 0.06f  /* the head's field is blurred by this much (the skull / neck crease) */
+#define HEAD_SMOOTH 0.03f      /* the photo's blur before the colour tests (as forehead.c) */
+#define HEAD_MASK_BLUR 0.04f   /* the skin and hair masks are blurred by this, then ramped */
+#define HEAD_HAIR_STRENGTH 0.5f
+#define HEAD_NEAR_SKIN 0.12f   /* the hair within about twice this of the skin follows the skin */
+#define BEARD_TO 0.0f          /* below this height (eye distances above the eyes) hair is a beard's ... */
+#define HAIR_FROM 0.3f         /* ... above this the head's hair */
+#define BEARD_SIDE 0.75f       /* a beard lies within this many eye distances of the face's axis ... */
+#define BEARD_FADE 0.2f        /* ... fading out over this much more (the ears' edges are not a beard) */
+#define SKIN_UP_FROM 0.6f      /* above these heights skin is the face's region's only */
+#define SKIN_UP_TO 0.9f
+#define HAIR_OVER_FROM 0.55f   /* above these heights, hair over the mesh takes the hair's change */
+#define HAIR_OVER_TO 0.7f
+/* The skin test: the cheeks' sample (as forehead.c) and its tolerances. */
+#define CHEEK_LOW -0.8f
+#define CHEEK_HIGH -0.25f
+#define CHEEK_SIDE 0.7f
+#define SKIN_MAD 2.5f
+#define SKIN_CHROMA 0.015f
+#define SKIN_DARKER 1.0f   /* log luminance below the cheeks' median still skin (a shadowed neck) */
+#define SKIN_BRIGHTER 0.4f
+#define SKIN_TEXTURE 0.01f
+/* The background: the photo's border, this share of its side. */
+#define BORDER 0.04f
+#define BG_MAD 3.0f
+#define BG_CHROMA 0.015f
+#define BG_LOG_LUM 0.7f
+#define BG_REGION_BLUR 0.06f /* eye distances */
+#define BG_EDGE_BLUR 0.04f
+
+void hd_head_free(hd_head *h)
+{
+    if (!h) return;
+    free(h->normal), free(h->proxy), free(h->mesh), free(h->skin), free(h->hair), free(h->bg), free(h->ws), free(h->wh), free(h->near);
+    memset(h, 0, sizeof *h);
+}
+
+/* The ray through photo pixel (x, y) in the canonical frame: P(t) = p0 + t v, t the camera depth. */
+typedef struct ray {
+    float p0[3], v[3];
+} ray;
+
+static ray ray_of(const hd_aligned_face *f, float x, float y)
+{
+    const float *R = f->rotation, s = f->scale;
+    const float c[3] = {x - f->translation[0], -y - f->translation[1], -f->translation[2]};
+    ray r;
+    for (int k = 0; k < 3; k++) {
+        r.p0[k] = (R[0 * 3 + k] * c[0] + R[1 * 3 + k] * c[1] + R[2 * 3 + k] * c[2]) / s;
+        r.v[k] = R[2 * 3 + k] / s;
+    }
+    return r;
+}
+
+/* The front-most crossing of ray r with the quadric sum_k ((P_k - centre_k) / axis_k)^2 = 1 over
+ * the axes with axis_k > 0: its depth *t (or, missed, the depth of closest approach) and rho, the
+ * normalised radius there (1 on the surface when hit, > 1 when missed). */
+static void cross(const ray *r, const float centre[3], const float axis[3], float *t, float *rho)
+{
+    double a = 0, b = 0, c = -1;
+    for (int k = 0; k < 3; k++) {
+        if (!(axis[k] > 0)) continue;
+        const double q = (r->p0[k] - centre[k]) / axis[k], w = r->v[k] / axis[k];
+        a += w * w, b += 2 * q * w, c += q * q;
+    }
+    if (a <= 0) {
+        *t = 0, *rho = INFINITY;
+        return;
+    }
+    const double disc = b * b - 4 * a * c;
+    if (disc >= 0) {
+        *t = (float)((-b + sqrt(disc)) / (2 * a));
+        *rho = 1.0f;
+    } else {
+        *t = (float)(-b / (2 * a));
+        *rho = (float)sqrt(1.0 + c - b * b / (4 * a)); /* (c + 1) at the closest approach */
+    }
+}
+
+/* The camera-frame unit normal of the quadric at P (canonical), facing the viewer (z >= 0). */
+static void quadric_normal(const hd_aligned_face *f, const float P[3], const float centre[3], const float axis[3],
+                           float n[3])
+{
+    float m[3];
+    for (int k = 0; k < 3; k++) m[k] = axis[k] > 0 ? (P[k] - centre[k]) / (axis[k] * axis[k]) : 0.0f;
+    const float *R = f->rotation;
+    for (int k = 0; k < 3; k++) n[k] = R[k * 3 + 0] * m[0] + R[k * 3 + 1] * m[1] + R[k * 3 + 2] * m[2];
+    if (n[2] < 0) n[2] = 0;
+    const float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (len > 1e-9f) n[0] /= len, n[1] /= len, n[2] /= len;
+    else n[0] = n[1] = 0, n[2] = 1;
+}
+
+/* The proxy at photo pixel (x, y): its normal and the skull's and the neck's normalised radii. */
+static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *rho_skull, float *rho_neck)
+{
+    static const float NECK_C[3] = {0.0f, 0.0f, NECK_Z}, NECK_A[3] = {NECK_R, 0.0f, NECK_R};
+    const ray r = ray_of(f, x + 0.5f, y + 0.5f);
+    float ts, tn;
+    cross(&r, SKULL_C, SKULL_A, &ts, rho_skull);
+    cross(&r, NECK_C, NECK_A, &tn, rho_neck);
+    float Pn[3], Ps[3];
+    for (int k = 0; k < 3; k++) Ps[k] = r.p0[k] + ts * r.v[k], Pn[k] = r.p0[k] + tn * r.v[k];
+    if (Pn[1] > NECK_TOP) *rho_neck = INFINITY; /* the neck is below the jaw only */
+    const int neck = *rho_neck <= 1.0f && (*rho_skull > 1.0f || tn > ts);
+    const int skull = !neck && (*rho_skull <= 1.0f || *rho_skull <= *rho_neck);
+    if (skull) quadric_normal(f, Ps, SKULL_C, SKULL_A, n);
+    else quadric_normal(f, Pn, NECK_C, NECK_A, n);
+}
+
+/* Window pixel (x, y) of head h as a photo pixel index. */
+static size_t photo_index(const hd_head *h, int x, int y) { return (size_t)(y + h->y0) * h->W + (x + h->x0); }
+
+/* Medians and tolerances of the features over the window pixels where pick[i] is set. */
+static int stats_of(const float *feat, size_t N, const unsigned char *pick, float *scratch, float med[NFEAT],
+                    float mad[NFEAT])
+{
+    for (int k = 0; k < NFEAT; k++) {
+        size_t n = 0;
+        for (size_t i = 0; i < N; i++)
+            if (pick[i]) scratch[n++] = feat[(size_t)k * N + i];
+        if (!n) return 0;
+        hd_median_mad(scratch, n, &med[k], &mad[k]);
+    }
+    return 1;
+}
+
+/* Ramps a blurred 0/1 mask into a soft weight (0 below 0.3, 1 above 0.8: a little inside the edge). */
+static void ramp(float *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++) v[i] = hd_field_smoothstep((v[i] - 0.3f) / 0.5f);
+}
+
+/* The background's colour: medians and deviations of chroma and log luminance over the photo's
+ * border (BORDER of its side; the pixels as they are); 0 without memory. */
+static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
+{
+    const int W = photo->width, H = photo->height, bw = (int)ceilf(BORDER * (W > H ? W : H));
+    const size_t P = (size_t)W * H;
+    float *v = hd_malloc((P ? P : 1) * sizeof(float));
+    if (!v) return 0;
+    for (int k = 0; k < NFEAT; k++) {
+        size_t n = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                if (!(x < bw || y < bw || x >= W - bw || y >= H - bw)) continue;
+                const size_t p = (size_t)y * W + x;
+                const float r = photo->data[p], g = photo->data[P + p], b = photo->data[2 * P + p], sum = r + g + b;
+                const float lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+                v[n++] = k == F_CHROMA_R ? (sum > 1e-6f ? r / sum : 1.0f / 3)
+                         : k == F_CHROMA_G ? (sum > 1e-6f ? g / sum : 1.0f / 3)
+                         : k == F_LOG_LUM ? logf(lum > 1e-3f ? lum : 1e-3f) : 0.0f;
+            }
+        if (!n) {
+            free(v);
+            return 0;
+        }
+        hd_median_mad(v, n, &med[k], &mad[k]);
+    }
+    free(v);
+    return 1;
+}
+
+/* The skin and hair masks of the window (the photo's colours, the proxy's reach). */
+static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
+                       const float *rho)
+{
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    float *rgb = hd_malloc(3 * N * sizeof(float)), *feat = hd_malloc(NFEAT * N * sizeof(float));
+    float *scratch = hd_malloc(N * sizeof(float));
+    unsigned char *pick = hd_calloc(N, 1);
+    hd_status st = rgb && feat && scratch && pick ? HD_OK : HD_ERR_NOMEM;
+    for (int c = 0; c < 3 && st == HD_OK; c++)
+        for (int y = 0; y < h->h; y++)
+            memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
+                   (size_t)h->w * sizeof(float));
+    if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
+    float skin_med[NFEAT], skin_mad[NFEAT], bg_med[NFEAT], bg_mad[NFEAT];
+    int have_skin = 0, have_bg = 0;
+    if (st == HD_OK) {
+        for (int y = 0; y < h->h; y++)
+            for (int x = 0; x < h->w; x++) {
+                const int gx = x + h->x0, gy = y + h->y0;
+                const float ht = hd_face_height(&h->frame, gx, gy);
+                pick[(size_t)y * h->w + x] = coverage[photo_index(h, x, y)] > 0.5f && ht >= CHEEK_LOW &&
+                                             ht <= CHEEK_HIGH && fabsf(hd_face_side(&h->frame, gx, gy)) <= CHEEK_SIDE;
+            }
+        have_skin = stats_of(feat, N, pick, scratch, skin_med, skin_mad);
+        have_bg = background(photo, bg_med, bg_mad);
+    }
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float cr = feat[(size_t)F_CHROMA_R * N + i], cg = feat[(size_t)F_CHROMA_G * N + i];
+        const float ll = feat[(size_t)F_LOG_LUM * N + i], tx = feat[(size_t)F_TEXTURE * N + i];
+        int skin = have_skin && fabsf(cr - skin_med[F_CHROMA_R]) <= SKIN_MAD * skin_mad[F_CHROMA_R] + SKIN_CHROMA &&
+               fabsf(cg - skin_med[F_CHROMA_G]) <= SKIN_MAD * skin_mad[F_CHROMA_G] + SKIN_CHROMA &&
+               ll >= skin_med[F_LOG_LUM] - SKIN_DARKER && ll <= skin_med[F_LOG_LUM] + SKIN_BRIGHTER &&
+               tx <= skin_med[F_TEXTURE] + SKIN_MAD * skin_mad[F_TEXTURE] + SKIN_TEXTURE;
+        int bg = have_bg && fabsf(cr - bg_med[F_CHROMA_R]) <= BG_MAD * bg_mad[F_CHROMA_R] + BG_CHROMA &&
+                 fabsf(cg - bg_med[F_CHROMA_G]) <= BG_MAD * bg_mad[F_CHROMA_G] + BG_CHROMA &&
+                 fabsf(ll - bg_med[F_LOG_LUM]) <= BG_MAD * bg_mad[F_LOG_LUM] + BG_LOG_LUM;
+        h->skin[i] = (float)skin;
+        h->bg[i] = (float)(bg && !skin);
+    }
+    /* the background as a region: small patches of its colour inside the hair (blond hair against
+     * a beige wall) are hair, or the hair changed and stayed by turns (blotches) */
+    if (st == HD_OK) st = hd_field_blur(h->bg, h->w, h->h, BG_REGION_BLUR * h->frame.e);
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float rs = rho[2 * i], rn = rho[2 * i + 1];
+        h->bg[i] = h->bg[i] > 0.5f && h->skin[i] < 0.5f ? 1.0f : 0.0f;
+        h->hair[i] = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= HAIR_REACH_SKULL || rn <= HAIR_REACH_NECK);
+    }
+    /* softened: the change fades over a few pixels at the person's outline rather than stopping */
+    if (st == HD_OK) st = hd_field_blur(h->bg, h->w, h->h, BG_EDGE_BLUR * h->frame.e);
+    const float sigma = HEAD_MASK_BLUR * h->frame.e;
+    if (st == HD_OK) st = hd_field_blur(h->skin, h->w, h->h, sigma);
+    if (st == HD_OK) st = hd_field_blur(h->hair, h->w, h->h, sigma);
+    if (st == HD_OK) ramp(h->skin, N), ramp(h->hair, N);
+    /* the skin's weight fades out toward the proxy's reach (no edge where the skin goes on: the
+     * shoulders, a chest), from radius 1 to the reach */
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float fs = 1 - hd_field_smoothstep((rho[2 * i] - 1) / (SKIN_REACH_SKULL - 1));
+        const float fn = 1 - hd_field_smoothstep((rho[2 * i + 1] - 1) / (SKIN_REACH_NECK - 1));
+        h->skin[i] *= fs > fn ? fs : fn;
+    }
+    free(rgb), free(feat), free(scratch), free(pick);
+    return st;
+}
+
+/* The rule's guard g (rule.c): a share (guard; <= 0: HD_RATIO_GUARD) of the face's mean source
+ * shading over its mask. */
+static hd_status guard_of(const hd_decomposition *d, const hd_image *mask, const float source[HD_SH_COEFFS],
+                          float guard, float *g)
+{
+    const int S = d->normal.width;
+    const size_t T = (size_t)S * d->normal.height;
+    hd_image m = {0};
+    float *s = hd_malloc((T ? T : 1) * sizeof(float));
+    hd_status st = s ? HD_OK : HD_ERR_NOMEM;
+    if (st == HD_OK && mask && mask->data) st = hd_image_resize(mask, S, d->normal.height, &m);
+    double mean = 0;
+    long count = 0;
+    if (st == HD_OK) {
+        hd_sh_shading_map(d->normal.data, NULL, (int)T, source, s);
+        for (size_t p = 0; p < T; p++)
+            if (!m.data || m.data[p] > 0.5f) mean += s[p] > 0 ? s[p] : 0, count++;
+    }
+    const float share = guard > 0 && isfinite(guard) ? guard : HD_RATIO_GUARD;
+    *g = share * (count > 0 && mean > 0 ? (float)(mean / count) : 1.0f);
+    free(s);
+    hd_image_free(&m);
+    return st;
+}
+
+hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                       const float source[HD_SH_COEFFS], float guard, hd_head *h)
+{
+    memset(h, 0, sizeof *h);
+    if (!f || !d || !d->normal.data || d->normal.channels != 3 || !photo || !photo->data || photo->channels != 3)
+        return hd_fail(HD_ERR_ARG, "relight: the head needs a face, its normals and a 3-channel photo");
+    if (!hd_face_frame_of(f, &h->frame) || !(f->scale > 0)) return HD_OK; /* no frame: the face alone */
+    hd_status st = guard_of(d, &f->mask, source, guard, &h->g);
+    if (st != HD_OK) return st;
+    const int W = photo->width, H = photo->height;
+    const size_t P = (size_t)W * H;
+    h->W = W, h->H = H;
+    /* the window: the proxy's reach, from a coarse scan of the photo */
+    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    const int stride = (int)fmaxf(1.0f, 0.05f * h->frame.e);
+    for (int y = 0; y < H; y += stride)
+        for (int x = 0; x < W; x += stride) {
+            float n[3], rs, rn;
+            proxy_at(f, x, y, n, &rs, &rn);
+            if (rs > SKIN_REACH_SKULL && rn > SKIN_REACH_NECK) continue;
+            x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1, y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
+        }
+    if (x1 < 0) return HD_OK;
+    x0 = x0 - stride < 0 ? 0 : x0 - stride, y0 = y0 - stride < 0 ? 0 : y0 - stride;
+    x1 = x1 + stride >= W ? W - 1 : x1 + stride, y1 = y1 + stride >= H ? H - 1 : y1 + stride;
+    h->x0 = x0, h->y0 = y0, h->w = x1 - x0 + 1, h->h = y1 - y0 + 1;
+    const size_t N = (size_t)h->w * h->h;
+    h->normal = hd_malloc(3 * N * sizeof(float)), h->proxy = hd_malloc(3 * N * sizeof(float));
+    h->mesh = hd_malloc(N * sizeof(float)), h->skin = hd_malloc(N * sizeof(float)), h->hair = hd_malloc(N * sizeof(float));
+    h->bg = hd_malloc(N * sizeof(float));
+    float *rho = hd_malloc(2 * N * sizeof(float)), *cover = hd_malloc(P * sizeof(float));
+    float *nblend = hd_malloc(P * sizeof(float));
+    hd_image nw = {0}, cov = {0};
+    st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && rho && cover && nblend ? HD_OK : HD_ERR_NOMEM;
+    /* the model's normals in the photo, extended past the mesh's edge */
+    if (st == HD_OK) st = hd_warp_back(f, &d->normal, NULL, &nw, &cov);
+    if (st == HD_OK) {
+        memcpy(cover, cov.data, P * sizeof(float));
+        st = hd_field_fill_holes(cover, W, H);
+    }
+    for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_fill(nw.data + (size_t)c * P, cov.data, W, H);
+    float *mesh_full = NULL;
+    if (st == HD_OK && !(mesh_full = hd_malloc(P * sizeof(float)))) st = HD_ERR_NOMEM;
+    if (st == HD_OK) st = hd_field_feather_out(cover, W, H, fmaxf(2.0f, HEAD_MESH_BAND * h->frame.e), mesh_full);
+    if (st == HD_OK) st = hd_field_feather_out(cover, W, H, fmaxf(2.0f, HEAD_NORMAL_BAND * h->frame.e), nblend);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+            float n[3];
+            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1]);
+            const float b = nblend[p];
+            float m[3], len = 0;
+            for (int k = 0; k < 3; k++) {
+                h->proxy[(size_t)k * N + i] = n[k];
+                m[k] = b * nw.data[(size_t)k * P + p] + (1 - b) * n[k];
+                len += m[k] * m[k];
+            }
+            len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
+            for (int k = 0; k < 3; k++) h->normal[(size_t)k * N + i] = m[k] * len;
+            h->mesh[i] = mesh_full[p];
+        }
+    if (st == HD_OK) st = masks(h, photo, cover, rho);
+    /* hair over the mesh above the brows (a fringe) is hair, not the face's skin */
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x;
+            const float up = hd_field_smoothstep((hd_face_height(&h->frame, x + x0, y + y0) - HAIR_OVER_FROM) /
+                                                 (HAIR_OVER_TO - HAIR_OVER_FROM));
+            h->mesh[i] *= 1.0f - up * h->hair[i];
+        }
+    free(rho), free(cover), free(nblend), free(mesh_full);
+    hd_image_free(&nw), hd_image_free(&cov);
+    if (st != HD_OK) hd_head_free(h);
+    return st;
+}
+
+/* log((max(s(n, target), 0) + g) / (max(s(n, source), 0) + g)) over N normals (3 planes); target
+ * NULL: flat light (1). */
+static void log_ratio(const float *normal, size_t N, const float source[HD_SH_COEFFS], const float *target, float g,
+                      float *out, float *scratch)
+{
+    hd_sh_shading_map(normal, NULL, (int)N, source, scratch);
+    if (target) hd_sh_shading_map(normal, NULL, (int)N, target, out);
+    for (size_t i = 0; i < N; i++) {
+        const float s = scratch[i] > 0 ? scratch[i] : 0.0f, t = target ? (out[i] > 0 ? out[i] : 0.0f) : 1.0f;
+        out[i] = t == s ? 0.0f : logf((t + g) / (s + g));
+    }
+}
+
+hd_status hd_head_weight(hd_head *h, float *weight)
+{
+    if (!h || !h->normal) return HD_OK;
+    if (!weight) return hd_fail(HD_ERR_ARG, "relight: no weights for the head");
+    const size_t N = (size_t)h->w * h->h;
+    if (!h->ws && !(h->ws = hd_malloc(N * sizeof(float)))) return HD_ERR_NOMEM;
+    if (!h->wh && !(h->wh = hd_malloc(N * sizeof(float)))) return HD_ERR_NOMEM;
+    if (!h->near && !(h->near = hd_malloc(N * sizeof(float)))) return HD_ERR_NOMEM;
+    /* how near the skin: the hair's strength and field rise from the hair's own to the skin's over
+     * about HEAD_NEAR_SKIN eye distances from the skin's edge (no step at the hairline) */
+    memcpy(h->near, h->skin, N * sizeof(float));
+    hd_status st = hd_field_blur(h->near, h->w, h->h, HEAD_NEAR_SKIN * h->frame.e);
+    if (st != HD_OK) return st;
+    for (size_t i = 0; i < N; i++) h->near[i] = fminf(1.0f, 2.0f * h->near[i]);
+    /* the face's weight where the mesh's field holds (eyes, lips, brows), the skin's anywhere, the
+     * hair's (weaker) where there is no skin */
+    for (int y = 0; y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+            /* below the eyes what is neither skin nor background is a beard or hair on the skin:
+             * it changes as the skin does (half the change over patches of skin left blotches) */
+            const int gx = x + h->x0, gy = y + h->y0;
+            const float low = (1 - hd_field_smoothstep((hd_face_height(&h->frame, gx, gy) - BEARD_TO) / (HAIR_FROM - BEARD_TO))) *
+                              (1 - hd_field_smoothstep((fabsf(hd_face_side(&h->frame, gx, gy)) - BEARD_SIDE) / BEARD_FADE));
+            /* above the brows, skin-coloured pixels beyond the face's region (the forehead grown
+             * to the hairline, forehead.c) are hair: blond hair passes the skin test in patches,
+             * which took the skin's change and the hair's by turns (blotches) */
+            const float up = hd_field_smoothstep((hd_face_height(&h->frame, gx, gy) - SKIN_UP_FROM) / (SKIN_UP_TO - SKIN_UP_FROM));
+            const float skin = h->skin[i] * (1 - up * (1 - fminf(1.0f, weight[p])));
+            const float hair = fmaxf(h->hair[i], h->skin[i] - skin);
+            h->ws[i] = fmaxf(fmaxf(weight[p] * h->mesh[i], skin), low * hair);
+            h->wh[i] = (HEAD_HAIR_STRENGTH + (1 - HEAD_HAIR_STRENGTH) * h->near[i]) * hair * (1 - h->ws[i]);
+            /* the background keeps the photo outside the face's interior (the masks' blur reached into it) */
+            const float keep = 1 - h->bg[i] * (1 - fminf(1.0f, weight[p]));
+            h->ws[i] *= keep, h->wh[i] *= keep;
+            weight[p] = h->ws[i] + h->wh[i];
+        }
+    return HD_OK;
+}
+
+hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], const hd_light_rgb *target,
+                        hd_image *field)
+{
+    if (!h || !h->normal) return HD_OK; /* no head: the face's field as it is */
+    if (!h->ws || !h->wh) return hd_fail(HD_ERR_ARG, "relight: the head's weights are not set");
+    if (!field || !field->data || field->width != h->W || field->height != h->H)
+        return hd_fail(HD_ERR_ARG, "relight: the head's field does not fit the photo");
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    const int C = field->channels;
+    float *skin_lr = hd_malloc(N * sizeof(float)), *hair_lr = hd_malloc(N * sizeof(float));
+    float *scratch = hd_malloc(N * sizeof(float)), *offset = hd_malloc(N * sizeof(float));
+    float *known = hd_malloc(N * sizeof(float));
+    hd_status st = skin_lr && hair_lr && scratch && offset && known ? HD_OK : HD_ERR_NOMEM;
+    for (int c = 0; c < C && st == HD_OK; c++) {
+        const float *tl = target ? target->sh[c] : NULL;
+        log_ratio(h->normal, N, source, tl, h->g, skin_lr, scratch);
+        log_ratio(h->proxy, N, source, tl, h->g, hair_lr, scratch);
+        st = hd_field_blur(skin_lr, h->w, h->h, HEAD_FIELD_BLUR * h->frame.e);
+        if (st == HD_OK) st = hd_field_blur(hair_lr, h->w, h->h, HEAD_FIELD_BLUR * h->frame.e);
+        float *F = field->data + (size_t)c * P;
+        /* beyond the face the change stays within the face's own: the proxy's up- and side-facing
+         * normals may see a light the face does not */
+        float lo = INFINITY, hi = -INFINITY;
+        for (int y = 0; y < h->h; y++)
+            for (int x = 0; x < h->w; x++)
+                if (h->mesh[(size_t)y * h->w + x] >= 1.0f) {
+                    const float v = F[photo_index(h, x, y)];
+                    lo = v < lo ? v : lo, hi = v > hi ? v : hi;
+                }
+        if (!(lo <= hi)) lo = hi = 0;
+        for (size_t i = 0; i < N; i++) {
+            skin_lr[i] = skin_lr[i] < lo ? lo : skin_lr[i] > hi ? hi : skin_lr[i];
+            hair_lr[i] = hair_lr[i] < lo ? lo : hair_lr[i] > hi ? hi : hair_lr[i];
+        }
+        /* the face's field minus the head's on the mesh, carried past its edge and faded out over
+         * the hand-over band: the skin's change is the face's on the mesh, continuous across its
+         * edge, and the head's beyond */
+        for (int y = 0; y < h->h; y++)
+            for (int x = 0; x < h->w; x++) {
+                const size_t i = (size_t)y * h->w + x;
+                offset[i] = h->mesh[i] >= 1.0f ? F[photo_index(h, x, y)] - skin_lr[i] : 0.0f;
+                known[i] = h->mesh[i] >= 1.0f ? 1.0f : 0.0f;
+            }
+        st = hd_field_fill(offset, known, h->w, h->h);
+        for (int y = 0; st == HD_OK && y < h->h; y++)
+            for (int x = 0; x < h->w; x++) {
+                const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+                const float sum = h->ws[i] + h->wh[i];
+                const float ls = skin_lr[i] + h->mesh[i] * offset[i];
+                /* the hair next to the skin takes the skin's change, further in its own */
+                const float hl = h->near[i] * ls + (1 - h->near[i]) * hair_lr[i];
+                const float v = (h->ws[i] * ls + h->wh[i] * hl) / sum;
+                if (sum > 0) F[p] = v < lo ? lo : v > hi ? hi : v;
+            }
+    }
+    free(skin_lr), free(hair_lr), free(scratch), free(offset), free(known);
+    return st;
+}
