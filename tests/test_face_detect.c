@@ -268,6 +268,33 @@ static void test_bad_arguments(const hd_image *photo, hd_face_mesh *mesh)
     CHECK(hd_face_detector_load(path, &det) == HD_ERR_FORMAT && strstr(hd_error(), "not a BlazeFace model"));
 }
 
+/* A tight crop, the face filling the photo (as the Yale B and Multi-PIE crops): no pyramid window
+ * sees the context the detector needs, so it is found by the zoom-out on grey. */
+static void test_tight_crop(const hd_image *photo, hd_face_mesh *mesh)
+{
+    const int x0 = 186, y0 = 72, W = 76, H = 90;
+    hd_image crop;
+    CHECK(hd_image_alloc(&crop, W, H, 3) == HD_OK);
+    if (!crop.data) return;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                crop.data[((size_t)c * H + y) * W + x] = /* grey, as those crops are */
+                    (photo->data[((size_t)y0 + y) * photo->width + x0 + x] +
+                     photo->data[((size_t)photo->height + y0 + y) * photo->width + x0 + x] +
+                     photo->data[((size_t)2 * photo->height + y0 + y) * photo->width + x0 + x]) / 3.0f;
+    (void)mesh;
+    hd_face_box *faces = NULL;
+    int count = 0;
+    CHECK(hd_face_detector_run(detector, &crop, HD_FACE_MIN_SCORE, &faces, &count) == HD_OK && count == 1);
+    if (count == 1) { /* the box round the nose (hand-marked) */
+        float centre[2] = {0.5f * (faces[0].x0 + faces[0].x1) + (float)x0, 0.5f * (faces[0].y0 + faces[0].y1) + (float)y0};
+        CHECK_POINT(centre, nose_tip, 15.0);
+    }
+    free(faces);
+    hd_image_free(&crop);
+}
+
 int main(void)
 {
     source_dir = test_source_dir();
@@ -287,6 +314,7 @@ int main(void)
     if (photo.data && mesh && detector) {
         test_astronaut(&photo, mesh);
         test_large(&photo, mesh);
+        test_tight_crop(&photo, mesh);
         test_no_face(mesh);
         test_bad_arguments(&photo, mesh);
     }

@@ -35,6 +35,13 @@
 #define PYRAMID_OVERLAP 2.6f   /* window overlap in units of the smallest face of the level */
 #define MIN_WINDOW_RATIO 0.5f  /* windows are at least half the network's side (2x enlargement) */
 #define MAX_LEVELS 12
+/* The zoom-outs tried on a photo in which the pyramid found no face: window sides in units of the
+ * photo's longer side (a face filling a crop is ~0.9 of it; 1.5-2.5 bring it to the sizes the
+ * detector scores highest, docs/face_detect.md). */
+static const float ZOOM_OUT[] = {1.6f, 2.0f, 2.6f};
+/* A photo under this many pixels a side is too small to hold a face the landmark model can use:
+ * no zoom-out (on a few pixels of flat colour it would find faces in the grey around them). */
+#define ZOOM_MIN_SIDE 48
 #define NUM_COORDS 16
 #define SCORE_CLIP 100.0f
 #define MAX_SUPERSAMPLE 16
@@ -70,7 +77,7 @@ static void bilinear(const hd_image *im, float px, float py, hd_sample_border bo
         fx = fx < 0.0f ? 0.0f : (fx > (float)(W - 1) ? (float)(W - 1) : fx);
         fy = fy < 0.0f ? 0.0f : (fy > (float)(H - 1) ? (float)(H - 1) : fy);
     } else if (!(fx > -1.0f && fy > -1.0f && fx < (float)W && fy < (float)H)) { /* also catches NaN */
-        rgb[0] = rgb[1] = rgb[2] = 0.0f;
+        rgb[0] = rgb[1] = rgb[2] = border == HD_BORDER_GREY ? 0.5f : 0.0f;
         return;
     }
     int x0 = (int)floorf(fx), y0 = (int)floorf(fy);
@@ -85,7 +92,11 @@ static void bilinear(const hd_image *im, float px, float py, hd_sample_border bo
         if (border == HD_BORDER_REPLICATE) {
             x = x < W ? x : W - 1;
             y = y < H ? y : H - 1;
-        } else if (x < 0 || y < 0 || x >= W || y >= H) continue;
+        } else if (x < 0 || y < 0 || x >= W || y >= H) {
+            if (border == HD_BORDER_GREY)
+                for (int c = 0; c < 3; c++) rgb[c] += 0.5f * wgt[k];
+            continue;
+        }
         const float *p = im->data + (size_t)y * W + x;
         for (int c = 0; c < 3; c++) rgb[c] += wgt[k] * p[gray ? 0 : c * plane];
     }
@@ -287,7 +298,9 @@ hd_status hd_face_detector_window(hd_face_detector *d, const hd_image *photo, co
     int N = d->size;
     float side = win->side, step = side / (float)N;
     float origin[2] = {win->x, win->y}, ax[2] = {step, 0.0f}, ay[2] = {0.0f, step};
-    hd_face_sample(photo, origin, ax, ay, N, N, -1.0f, 1.0f, HD_BORDER_ZERO, d->input);
+    /* a window wider than the photo (the zoom-out of a tight crop) sees it on grey, not black */
+    float longer = (float)(photo->width > photo->height ? photo->width : photo->height);
+    hd_face_sample(photo, origin, ax, ay, N, N, -1.0f, 1.0f, side > longer ? HD_BORDER_GREY : HD_BORDER_ZERO, d->input);
     hd_status st = hd_tfjs_run(d->graph, d->input);
     if (st != HD_OK) return st;
     if ((st = reserve_boxes(d, d->nanchors))) return st;
@@ -398,6 +411,16 @@ hd_status hd_face_detector_find(hd_face_detector *d, const hd_image *photo, floa
     d->nboxes = 0;
     for (int i = 0; i < nwin && !st; i++) st = hd_face_detector_window(d, photo, &wins[i], min_score);
     free(wins);
+    /* A tight crop (the face filling the photo, as in the Yale and Multi-PIE crops) has no context
+     * around the face, which the detector needs: when the pyramid finds nothing, the photo is seen
+     * again zoomed out, centred on grey, until a window finds a face. */
+    float T0 = (float)(photo->width > photo->height ? photo->width : photo->height);
+    int small = photo->width < ZOOM_MIN_SIDE || photo->height < ZOOM_MIN_SIDE;
+    for (int z = 0; z < (int)(sizeof ZOOM_OUT / sizeof ZOOM_OUT[0]) && !small && !st && d->nboxes == 0; z++) {
+        float side = ZOOM_OUT[z] * T0;
+        hd_face_window w = {0.5f * ((float)photo->width - side), 0.5f * ((float)photo->height - side), side, 0, 0};
+        st = hd_face_detector_window(d, photo, &w, min_score);
+    }
     if (st) return st;
     int n = d->nboxes;
     if (n == 0) return HD_OK;

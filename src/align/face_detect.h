@@ -87,8 +87,9 @@ int hd_face_boxes_merge(hd_face_box *boxes, int n, float iou);
 
 /* How a sampler treats points outside the photo. */
 typedef enum hd_sample_border {
-    HD_BORDER_ZERO,     /* black */
-    HD_BORDER_REPLICATE /* the nearest edge pixel */
+    HD_BORDER_ZERO,      /* black */
+    HD_BORDER_REPLICATE, /* the nearest edge pixel */
+    HD_BORDER_GREY       /* mid grey (0.5): the context a tight face crop lacks, without an edge of black */
 } hd_sample_border;
 
 /* Samples the photo into out (height, width, 3), NHWC RGB with values lo + (hi - lo) v for the
