@@ -29,6 +29,11 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define NECK_Z -4.0f
 #define NECK_R 5.5f
 #define NECK_TOP -3.0f
+/* The neck ends: below NECK_BOTTOM its radius grows by 1 every NECK_FADE cm, so the skin's weight
+ * (which fades from radius 1 to SKIN_REACH_NECK) ends smoothly a little below the collarbones
+ * instead of running down the photo as a column (an orange suit, a bare chest under a collar). */
+#define NECK_BOTTOM -12.0f
+#define NECK_FADE 6.0f
 /* How far the change reaches beyond the proxy's silhouette, as its normalised radius (1: on it). */
 #define SKIN_REACH_SKULL 1.25f /* the ears, a fuller face than the proxy */
 #define SKIN_REACH_NECK 1.5f
@@ -141,6 +146,7 @@ static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *
     float Pn[3], Ps[3];
     for (int k = 0; k < 3; k++) Ps[k] = r.p0[k] + ts * r.v[k], Pn[k] = r.p0[k] + tn * r.v[k];
     if (Pn[1] > NECK_TOP) *rho_neck = INFINITY; /* the neck is below the jaw only */
+    else if (Pn[1] < NECK_BOTTOM) *rho_neck += (NECK_BOTTOM - Pn[1]) / NECK_FADE;
     const int neck = *rho_neck <= 1.0f && (*rho_skull > 1.0f || tn > ts);
     const int skull = !neck && (*rho_skull <= 1.0f || *rho_skull <= *rho_neck);
     if (skull) quadric_normal(f, Ps, SKULL_C, SKULL_A, n);
