@@ -17,6 +17,7 @@
 #include "align/face_detect.h"     /* the detector, for `hdnet detect` */
 #include "align/face_landmarks.h"  /* the face mesh, for `hdnet detect` */
 #include "apply/apply.h"           /* the relighting rule's pieces, for `hdnet eval --sheets` */
+#include "eval/multilight.h"        /* `hdnet eval --multilight` */
 #include "video/video.h"           /* video clips, for relight, transfer and delight of a clip */
 
 #endif /* HDNET_TOOL_H */

@@ -172,11 +172,83 @@ static int pair_eval(const char *data, const char *model_path, const hd_photo_ru
     return CLI_EXIT_OK;
 }
 
+static cli_progress ml_bar;
+static void ml_progress(int done, int total, const char *subject)
+{
+    ml_bar.total = total;
+    cli_progress_update(&ml_bar, done, subject);
+}
+
+/* "A+025E+00,A-050E+00" (the set's own names) or "25,0;-50,0" into the options' lights. */
+static int parse_ml_lights(const cli_cmd_spec *spec, const char *text, hd_ml_options *o)
+{
+    o->nlights = 0;
+    for (const char *s = text; *s;) {
+        float az, el;
+        int used = 0;
+        if (o->nlights == HD_ML_MAX_LIGHTS) return cli_usage_error(spec, "--lights: at most %d lights", HD_ML_MAX_LIGHTS);
+        if (!(sscanf(s, "A%fE%f%n", &az, &el, &used) == 2 || sscanf(s, "%f:%f%n", &az, &el, &used) == 2) ||
+            !(fabsf(az) <= 180.0f && fabsf(el) <= 90.0f))
+            return cli_usage_error(spec, "--lights wants names like A+025E+00 or AZ:EL, comma-separated, got '%s'", s);
+        o->az[o->nlights] = az, o->el[o->nlights++] = el;
+        s += used;
+        if (*s == ',') s++;
+        else if (*s) return cli_usage_error(spec, "--lights: '%s' is not a light", s);
+    }
+    return 0;
+}
+
+static int multilight_eval(const char *data, const char *model_path, const hd_ml_options *o, const json_out *json)
+{
+    hd_model *model = NULL;
+    hd_aligner *aligner = NULL;
+    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
+        hd_model_free(model);
+        return cli_report("eval");
+    }
+    hd_ml_report r;
+    cli_progress_start(&ml_bar, "eval --multilight: subjects", 0);
+    hd_status st = hd_ml_run(data, model, aligner, o, &r, warn, json->quiet ? NULL : ml_progress);
+    if (!json->quiet) cli_progress_finish(&ml_bar, r.subjects, NULL);
+    hd_model_free(model);
+    hd_aligner_free(aligner);
+    if (st != HD_OK) return cli_report("eval");
+    if (!json->print) {
+        printf("%d subjects, %d target lights: each subject's frontal photo against its real photo under each light\n"
+               "scale-invariant MSE x 1000 over the face (lower is better; docs/evaluation.md)\n\n",
+               r.subjects, r.nlights);
+        printf("%-42s %8s %8s %6s\n", "method", "median", "mean", "n");
+        for (int k = 0; k < HD_ML_ROWS; k++)
+            printf("%-42s %8.2f %8.2f %6ld\n", hd_ml_row_name(k), r.rows[k].median, r.rows[k].mean, r.rows[k].n);
+        printf("\nper light (mean; the set's convention: azimuth > 0 lights the image's left)\n%-12s", "light");
+        for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9s", k == HD_ML_INPUT ? "input" : k == HD_ML_TRANSFER ? "transfer"
+                                                            : k == HD_ML_RELIGHT ? "relight" : "PS bound");
+        printf("\n");
+        for (int j = 0; j < r.nlights; j++) {
+            printf("A%+04.0fE%+03.0f  ", r.az[j], r.el[j]);
+            for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9.2f", r.per_light[k][j].mean);
+            printf("\n");
+        }
+        printf("\nnormals against photometric stereo: %.2f degrees mean, %.2f median over %ld subjects"
+               " (a flat front-facing map: %.2f)\n", r.normals.mean, r.normals.median, r.normals.n, r.normals_flat.mean);
+        printf("light estimated from each target photo against its true direction: %.2f degrees mean, %.2f median (%ld photos)\n",
+               r.light_error.mean, r.light_error.median, r.light_error.n);
+        printf("faces missed: %d frontal photos, %d target photos (%d references left out of the transfer)",
+               r.sources_missed, r.nmissed - r.sources_missed, r.refs_missed);
+        for (int i = 0; i < r.nmissed; i++) printf("%s%s", i ? ", " : ": ", r.missed[i]);
+        printf("\nphotos absent from the set: %d; dark, left out: %d\n", r.photos_absent, r.photos_dark);
+    }
+    if (json->print || json->out)
+        return emit_json(json, hd_ml_report_json(&r), json->out ? hd_ml_report_write_json(json->out, &r) : HD_OK);
+    return CLI_EXIT_OK;
+}
+
 int cmd_eval(int argc, char **argv)
 {
     const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
     const char *source = NULL, *white_balance = NULL;
-    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0;
+    const char *ml_lights = NULL;
+    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0, multilight = 0, refs = 0;
     float guard = 0.0f;
     const cli_opt opts[] = {
         {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
@@ -188,11 +260,18 @@ int cmd_eval(int argc, char **argv)
          "DATA is a folder of people (one folder each) of real photos: measure relighting (docs/usage.md)"},
         {"pairs", 0, CLI_OPT_FLAG, &pairs, NULL,
          "DATA is a paired synthetic set: relight image i under the true light of image j, against j"},
+        {"multilight", 0, CLI_OPT_FLAG, &multilight, NULL,
+         "DATA holds photos of faces under known point lights (lights.csv; docs/evaluation.md): measure relighting, "
+         "light transfer, the light estimate and the normals against them"},
+        {"lights", 0, CLI_OPT_STRING, &ml_lights, "LIST",
+         "with --multilight: the target lights, e.g. A+025E+00,A-050E+00 (default: twelve within 70 degrees)"},
+        {"refs", 0, CLI_OPT_INT, &refs, "N", "with --multilight: references per light for the transfer (default 3)"},
         {"rule", 0, CLI_OPT_STRING, &rule, "ratio|paper", "with --photos: the relighting rule (default ratio)"},
         {"heldout", 0, CLI_OPT_STRING, &heldout, "IDS.txt", "with --photos: the held-out people, reported apart"},
         {"limit", 0, CLI_OPT_INT, &limit, "N", "with --photos: only the first N people"},
         {"sheets", 0, CLI_OPT_STRING, &sheets, "OUT",
-         "with --photos: instead of scores, a before / after sheet per photo into folder OUT"},
+         "with --photos: instead of scores, a before / after sheet per photo into folder OUT; with --multilight: "
+         "also a sheet per subject (the truth, relit, transfer and bound per light) into OUT"},
         CLI_OPT_SOURCE_LIGHT_ROW(source),
         CLI_OPT_WHITE_BALANCE_ROW(white_balance),
         {"guard", 0, CLI_OPT_FLOAT, &guard, "G",
@@ -205,7 +284,7 @@ int cmd_eval(int argc, char **argv)
     const cli_cmd_spec spec = {
         "eval",
         "DATA [-m MODEL | --pred DIR] [--json] [-o FILE.json] | DATA --photos [-m MODEL] [--rule R] [--heldout IDS.txt] "
-        "| DATA --pairs [-m MODEL]",
+        "| DATA --pairs [-m MODEL] | DATA --multilight [-m MODEL] [--lights LIST] [--sheets OUT]",
         "Scores albedo, shading, normals, light and reconstruction against the ground truth of DATA\n"
         "(SPEC section 5 folders with NAME.albedo.png, NAME.normal_gt.png, NAME.shading.pfm or .png,\n"
         "NAME.light.txt, NAME.mask.png) over pixels with mask > 0.5: normal angular error (mean, std,\n"
@@ -221,7 +300,14 @@ int cmd_eval(int argc, char **argv)
         "self, light, lum; docs/usage.md, \"Measuring relighting\"): medians, tuning and held-out\n"
         "apart, and the worst photo of each. With --pairs, DATA is an `hdnet synth` set: image i of a\n"
         "subject relit under the true light of its next image j, against j (MAE, RMSE, PSNR, SSIM),\n"
-        "beside the input unchanged, the exact decomposition and the paper's rule.",
+        "beside the input unchanged, the exact decomposition and the paper's rule. With --multilight,\n"
+        "DATA holds real photos of faces under known point lights (DATA/lights.csv: file, subject,\n"
+        "azimuth_deg, elevation_deg; azimuth > 0 lights the image's LEFT, as the Extended Yale Face\n"
+        "Database B): each subject's frontal photo relit to each target light's true direction and\n"
+        "under the light estimated from another subject's photo (transfer), against the real photo\n"
+        "(scale-invariant MSE x 1000 over the face), with the input unchanged and photometric stereo\n"
+        "from the subject's other photos as rows; the model's normals against photometric stereo's;\n"
+        "the light estimated from each target photo against its true direction (docs/evaluation.md).",
         opts, 1, 2};
     char **pos = NULL;
     int npos = 0, code = 0;
@@ -234,16 +320,30 @@ int cmd_eval(int argc, char **argv)
     const json_out jo = {json, out, quiet};
     if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
     if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
-    if (photos && pairs) return cli_usage_error(&spec, "--photos and --pairs exclude each other");
+    if (photos + pairs + multilight > 1) return cli_usage_error(&spec, "--photos, --pairs and --multilight exclude each other");
+    if ((ml_lights || refs) && !multilight) return cli_usage_error(&spec, "--lights and --refs go with --multilight");
     hd_photo_rule how = {strcmp(rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, guard};
     if (source && cli_source_light_parse(&spec, source, &how.source)) return CLI_EXIT_USAGE;
     if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
-    if (guard > 0 && !photos && !pairs) return cli_usage_error(&spec, "--guard goes with --photos or --pairs");
-    if (white_balance && (pairs || photos))
+    if (guard > 0 && !photos && !pairs && !multilight)
+        return cli_usage_error(&spec, "--guard goes with --photos, --pairs or --multilight");
+    if (white_balance && (pairs || photos || multilight))
         return cli_usage_error(&spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
     if (pairs) {
         if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
         return pair_eval(data, model_path, &how, &jo);
+    }
+    if (multilight) {
+        if (pred) return cli_usage_error(&spec, "--multilight relights with a model: --pred does not go with it");
+        if (strcmp(rule, "ratio") != 0 && strcmp(rule, "paper") != 0)
+            return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
+        if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
+        if (refs < 0 || refs > 16) return cli_usage_error(&spec, "--refs wants 1..16, got %d", refs);
+        hd_ml_options o;
+        memset(&o, 0, sizeof o);
+        o.refs = refs, o.limit = limit, o.sheets = sheets, o.rule = how.rule, o.source = how.source, o.guard = guard;
+        if (ml_lights && parse_ml_lights(&spec, ml_lights, &o)) return CLI_EXIT_USAGE;
+        return multilight_eval(data, model_path, &o, &jo);
     }
     if (photos) {
         if (pred) return cli_usage_error(&spec, "--photos relights with a model: --pred does not go with it");
