@@ -292,6 +292,25 @@ static void test_tight_crop(const hd_image *photo, hd_face_mesh *mesh)
         CHECK_POINT(centre, nose_tip, 15.0);
     }
     free(faces);
+    /* a face under hard side light scores under the threshold on grey: the zoom-out is tried again
+     * at a share of it (with a threshold of 1, which no face reaches, only that round finds it) */
+    faces = NULL, count = 0;
+    CHECK(hd_face_detector_run(detector, &crop, 1.0f, &faces, &count) == HD_OK && count == 1);
+    if (count == 1) {
+        float centre[2] = {0.5f * (faces[0].x0 + faces[0].x1) + (float)x0, 0.5f * (faces[0].y0 + faces[0].y1) + (float)y0};
+        CHECK(faces[0].score < 1.0f);
+        CHECK_POINT(centre, nose_tip, 15.0);
+    }
+    free(faces);
+    /* the zoom-out alone (what the aligner tries when the landmark model doubts every box the
+     * pyramid found in a crop) */
+    faces = NULL, count = 0;
+    CHECK(hd_face_detector_find_zoomed(detector, &crop, HD_FACE_MIN_SCORE, &faces, &count) == HD_OK && count == 1);
+    if (count == 1) {
+        float centre[2] = {0.5f * (faces[0].x0 + faces[0].x1) + (float)x0, 0.5f * (faces[0].y0 + faces[0].y1) + (float)y0};
+        CHECK_POINT(centre, nose_tip, 15.0);
+    }
+    free(faces);
     hd_image_free(&crop);
 }
 

@@ -207,9 +207,9 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
         return cli_report("eval");
     }
     hd_ml_report r;
-    cli_progress_start(&ml_bar, "eval --multilight: subjects", 0);
+    cli_progress_start(&ml_bar, "eval --multilight: steps", 0);
     hd_status st = hd_ml_run(data, model, aligner, o, &r, warn, json->quiet ? NULL : ml_progress);
-    if (!json->quiet) cli_progress_finish(&ml_bar, r.subjects, NULL);
+    if (!json->quiet) cli_progress_finish(&ml_bar, ml_bar.total, NULL);
     hd_model_free(model);
     hd_aligner_free(aligner);
     if (st != HD_OK) return cli_report("eval");

@@ -269,6 +269,52 @@ void hd_aligner_free(hd_aligner *aligner)
     free(aligner);
 }
 
+/* The faces of nboxes detections: the face mesh fitted on each (MediaPipe's two passes), those
+ * the landmark model doubts dropped (counted in *dropped), the rest aligned into *out (allocated;
+ * *count of them). *last gets the reason of the last face that failed to align. */
+static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, const hd_image *p3, int size,
+                           const hd_face_box *boxes, int nboxes, hd_aligned_face **out, int *count, int *dropped,
+                           hd_status *last)
+{
+    *out = NULL;
+    *count = 0;
+    if (nboxes <= 0) return HD_OK;
+    hd_aligned_face *faces = hd_calloc((size_t)nboxes, sizeof *faces);
+    float (*landmarks)[3] = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
+    hd_status st = faces && landmarks ? HD_OK : HD_ERR_NOMEM;
+    for (int b = 0; b < nboxes && st == HD_OK; b++) {
+        float presence = 1;
+        hd_status fs = hd_face_mesh_fit(aligner->landmarks, p3, &boxes[b], 2, landmarks, &presence);
+        if (fs == HD_ERR_NOMEM) {
+            st = fs;
+            break;
+        }
+        if (fs == HD_OK && presence < MIN_PRESENCE) {
+            (*dropped)++;
+            continue;
+        }
+        if (fs == HD_OK) fs = hd_align_face_on(canonical, p3, (const float (*)[3])landmarks, size, &faces[*count]);
+        if (fs != HD_OK) {
+            *last = fs;
+            continue;
+        }
+        hd_aligned_face *f = &faces[(*count)++];
+        f->score = boxes[b].score;
+        f->box[0] = boxes[b].x0;
+        f->box[1] = boxes[b].y0;
+        f->box[2] = boxes[b].x1;
+        f->box[3] = boxes[b].y1;
+    }
+    free(landmarks);
+    if (st != HD_OK) {
+        hd_aligned_faces_free(faces, *count);
+        *count = 0;
+        return st;
+    }
+    *out = faces;
+    return HD_OK;
+}
+
 static hd_status runner_run(align_runner *runner, const hd_mesh *canonical, float min_score, float min_face,
                             const hd_image *photo, int size,
                             hd_aligned_face **faces, int *count);
@@ -324,42 +370,22 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
     hd_face_box *boxes = NULL;
     int nboxes = 0, dropped = 0;
     hd_aligned_face *out = NULL;
-    float (*landmarks)[3] = NULL;
-    if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
-    if (nboxes > 0) {
-        out = hd_calloc((size_t)nboxes, sizeof *out);
-        landmarks = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
-        if (!out || !landmarks) {
-            st = HD_ERR_NOMEM;
-            goto done;
-        }
-    }
     hd_status last = HD_OK;
-    for (int b = 0; b < nboxes; b++) {
-        float presence = 1;
-        /* two passes, as MediaPipe: the detection's crop, then the crop of the first landmarks */
-        hd_status fs = hd_face_mesh_fit(aligner->landmarks, p3, &boxes[b], 2, landmarks, &presence);
-        if (fs == HD_ERR_NOMEM) {
-            st = fs;
-            goto done;
-        }
-        if (fs == HD_OK && presence < MIN_PRESENCE) {
-            dropped++;
-            continue;
-        }
-        if (fs == HD_OK) fs = hd_align_face_on(canonical, p3, (const float (*)[3])landmarks, size, &out[*count]);
-        if (fs != HD_OK) {
-            last = fs;
-            continue;
-        }
-        hd_aligned_face *f = &out[(*count)++];
-        f->score = boxes[b].score;
-        f->box[0] = boxes[b].x0;
-        f->box[1] = boxes[b].y0;
-        f->box[2] = boxes[b].x1;
-        f->box[3] = boxes[b].y1;
+    if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
+    st = fit_boxes(aligner, canonical, p3, size, boxes, nboxes, &out, count, &dropped, &last);
+    /* what the pyramid found in a tight crop may be no face (the landmark model doubts it) while the
+     * face itself, without context, scored under the threshold: the zoom-out of the crop */
+    if (st == HD_OK && *count == 0 && nboxes > 0) {
+        hd_aligned_faces_free(out, 0);
+        out = NULL;
+        free(boxes);
+        boxes = NULL;
+        int more = 0;
+        if ((st = hd_face_detector_find_zoomed(aligner->detector, p3, min_score, &boxes, &more))) goto done;
+        nboxes += more;
+        st = fit_boxes(aligner, canonical, p3, size, boxes, more, &out, count, &dropped, &last);
     }
-    if (*count == 0) {
+    if (st == HD_OK && *count == 0) {
         if (last != HD_OK) st = last; /* its reason is already set */
         else
             st = hd_fail(HD_ERR_NOTFOUND, "no face found (%d detection(s), %d rejected by the landmark model)", nboxes,
@@ -373,7 +399,6 @@ done:
     }
     *faces = out;
     free(boxes);
-    free(landmarks);
     hd_image_free(&rgb);
     return st;
 }

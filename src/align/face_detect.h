@@ -56,6 +56,10 @@ float hd_face_detector_min_face(const hd_face_detector *detector, int width, int
  * (hd_face_boxes_merge). min_score in (0, 1]; min_face 0 is the whole photo once (letterboxed). */
 hd_status hd_face_detector_find(hd_face_detector *detector, const hd_image *photo, float min_score, float min_face,
                                 hd_face_box **faces, int *count);
+/* Only the zoom-out of a tight crop that hd_face_detector_find tries when its pyramid finds nothing:
+ * for when what the pyramid found was not a face (the landmark model's presence test). */
+hd_status hd_face_detector_find_zoomed(hd_face_detector *detector, const hd_image *photo, float min_score,
+                                       hd_face_box **faces, int *count);
 /* hd_face_detector_find with min_face HD_FACE_MIN_SIZE. */
 hd_status hd_face_detector_run(hd_face_detector *detector, const hd_image *photo, float min_score,
                                hd_face_box **faces, int *count);

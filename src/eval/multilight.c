@@ -369,10 +369,11 @@ static double angle_deg(const float a[3], const float b[3])
 
 /* Pass 1: the light estimated from every target photo, and its error against the truth. Also
  * marks dark photos absent. */
-static hd_status estimate_lights(run *R)
+static hd_status estimate_lights(run *R, void (*progress)(int done, int total, const char *subject))
 {
     hd_status st = HD_OK;
-    for (int s = 0; s < R->nsubj && st == HD_OK; s++)
+    for (int s = 0; s < R->nsubj && st == HD_OK; s++) {
+        if (s > 0 && progress) progress(s, 2 * R->nsubj, R->subj[s - 1].name);
         for (int j = 0; j < R->r->nlights && st == HD_OK; j++) {
             subject *S = &R->subj[s];
             const int i = S->target[j];
@@ -399,6 +400,7 @@ static hd_status estimate_lights(run *R)
             }
             hd_image_free(&grey), hd_image_free(&rgb);
         }
+    }
     return st;
 }
 
@@ -639,13 +641,13 @@ hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const
         if (R.subj[s].frontal < 0) say(&R, R.subj[s].name, "no frontal photo (azimuth 0, elevation 0): left out");
         for (int j = 0; j < r->nlights; j++) r->photos_absent += R.subj[s].target[j] < 0;
     }
-    if (st == HD_OK) st = estimate_lights(&R);
+    if (st == HD_OK) st = estimate_lights(&R, progress);
     for (int s = 0; s < R.nsubj && st == HD_OK; s++) {
         if (R.subj[s].frontal < 0) continue;
         st = score_subject(&R, s);
         if (st != HD_OK) break;
         r->subjects++;
-        if (progress) progress(s + 1, R.nsubj, R.subj[s].name);
+        if (progress) progress(R.nsubj + s + 1, 2 * R.nsubj, R.subj[s].name);
     }
     for (int k = 0; k < HD_ML_ROWS; k++) {
         r->rows[k] = summary(&R.rows[k]);

@@ -79,7 +79,8 @@ typedef struct hd_ml_report {
     int nmissed;
 } hd_ml_report;
 /* Scores model on the set in dir. warn (may be NULL) hears what is skipped, progress (may be NULL)
- * each subject done (done of total). */
+ * each step done (done of total: the lights of a subject's target photos estimated, then a subject
+ * scored). */
 hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_ml_options *options,
                     hd_ml_report *report, void (*warn)(const char *message),
                     void (*progress)(int done, int total, const char *subject));
