@@ -185,9 +185,11 @@ static int parse_ml_lights(const cli_cmd_spec *spec, const char *text, hd_ml_opt
     o->nlights = 0;
     for (const char *s = text; *s;) {
         float az, el;
-        int used = 0;
+        int used = 0, a, e;
         if (o->nlights == HD_ML_MAX_LIGHTS) return cli_usage_error(spec, "--lights: at most %d lights", HD_ML_MAX_LIGHTS);
-        if (!(sscanf(s, "A%fE%f%n", &az, &el, &used) == 2 || sscanf(s, "%f:%f%n", &az, &el, &used) == 2) ||
+        if (sscanf(s, "A%dE%d%n", &a, &e, &used) == 2) az = (float)a, el = (float)e; /* %f would read 025E+00 */
+        else if (sscanf(s, "%f:%f%n", &az, &el, &used) != 2) used = 0;
+        if (!used ||
             !(fabsf(az) <= 180.0f && fabsf(el) <= 90.0f))
             return cli_usage_error(spec, "--lights wants names like A+025E+00 or AZ:EL, comma-separated, got '%s'", s);
         o->az[o->nlights] = az, o->el[o->nlights++] = el;

@@ -330,13 +330,19 @@ static hd_status group_subjects(run *R)
     return HD_OK;
 }
 
-/* Row i's photo as grey (1 channel) and as the 3-channel picture the model takes. */
+/* Row i's photo as the model takes it (3 channels; a grey photo's value in each) into rgb (may be
+ * NULL), and as grey (the mean of its channels, as the relit pictures are scored) into grey. */
+static void grey_of(const hd_image *rgb, float *out);
 static hd_status load(const run *R, int i, hd_image *grey, hd_image *rgb)
 {
     char *path = hd_path_join(R->set->dir, R->set->rows[i].file);
     if (!path) return HD_ERR_NOMEM;
-    hd_status st = hd_image_read_as(path, 1, grey);
-    if (st == HD_OK && rgb) st = hd_image_convert(grey, 3, rgb);
+    hd_image colour = {0};
+    hd_status st = hd_image_read_as(path, 3, &colour);
+    if (st == HD_OK) st = hd_image_alloc(grey, colour.width, colour.height, 1);
+    if (st == HD_OK) grey_of(&colour, grey->data);
+    if (st == HD_OK && rgb) *rgb = colour;
+    else hd_image_free(&colour);
     free(path);
     return st;
 }
@@ -404,7 +410,7 @@ static hd_status estimate_lights(run *R, void (*progress)(int done, int total, c
     return st;
 }
 
-/* The relit pictures' grey (the mean of the channels). */
+/* A picture's grey (the mean of its 3 channels). */
 static void grey_of(const hd_image *rgb, float *out)
 {
     const size_t P = (size_t)rgb->width * rgb->height;
@@ -519,7 +525,7 @@ static hd_status score_subject(run *R, int s)
     sheet_row *sheet = R->o->sheets ? hd_calloc((size_t)L, sizeof *sheet) : NULL;
     memset(truths, 0, sizeof truths);
     hd_status st = ph && dirs && (sheet || !R->o->sheets) ? HD_OK : HD_ERR_NOMEM;
-    int m = 0;
+    int m = 0, fm = -1;
     for (int i = 0; i < set->count && st == HD_OK; i++) {
         if (strcmp(set->rows[i].subject, S->name)) continue;
         hd_ml_direction(set->rows[i].az, set->rows[i].el, dirs[m]);
@@ -534,8 +540,10 @@ static hd_status score_subject(run *R, int s)
         if (st == HD_OK && m > 0 && (ph[m].width != ph[0].width || ph[m].height != ph[0].height))
             st = hd_fail(HD_ERR_FORMAT, "%s/%s: %d x %d, the subject's other photos are %d x %d", set->dir,
                          set->rows[i].file, ph[m].width, ph[m].height, ph[0].width, ph[0].height);
+        if (st == HD_OK && i == S->frontal) fm = m;
         if (st == HD_OK) m++;
     }
+    if (st == HD_OK && fm < 0) st = hd_fail(HD_ERR_FORMAT, "%s: the frontal photo of %s is dark", set->dir, S->name);
     hd_ps ps = {0};
     if (st == HD_OK) st = hd_ps_build(ph, (const float (*)[3])dirs, m, &ps);
     const size_t P = st == HD_OK ? (size_t)frontal.width * frontal.height : 0;
@@ -584,8 +592,7 @@ static hd_status score_subject(run *R, int s)
         double e = hd_ml_si_mse(pred, truths[j].data, mask, P);
         st = push(&R->rows[HD_ML_PS], e);
         if (st == HD_OK) st = push(&R->per_light[HD_ML_PS][j], e);
-        for (size_t p = 0; p < P && st == HD_OK; p++) pred[p] = frontal.data[p]; /* the frontal's grey */
-        e = hd_ml_si_mse(pred, truths[j].data, mask, P);
+        e = hd_ml_si_mse(ph[fm].data, truths[j].data, mask, P);
         if (st == HD_OK) st = push(&R->rows[HD_ML_INPUT], e);
         if (st == HD_OK) st = push(&R->per_light[HD_ML_INPUT][j], e);
         if (st == HD_OK && sheet) {
