@@ -250,7 +250,7 @@ int cmd_eval(int argc, char **argv)
     const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
     const char *source = NULL, *white_balance = NULL;
     const char *ml_lights = NULL;
-    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0, multilight = 0, refs = 0;
+    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0, multilight = 0, refs = 0, free_level = 0;
     float guard = 0.0f;
     const cli_opt opts[] = {
         {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
@@ -268,6 +268,9 @@ int cmd_eval(int argc, char **argv)
         {"lights", 0, CLI_OPT_STRING, &ml_lights, "LIST",
          "with --multilight: the target lights, e.g. A+025E+00,A-050E+00 (default: twelve within 70 degrees)"},
         {"refs", 0, CLI_OPT_INT, &refs, "N", "with --multilight: references per light for the transfer (default 3)"},
+        {"no-keep-brightness", 0, CLI_OPT_FLAG, &free_level, NULL,
+         "with --multilight: relight at the target light's own level instead of keeping the face's mean "
+         "(what `hdnet relight --no-keep-brightness` does; the score ignores the level, not what clips)"},
         {"rule", 0, CLI_OPT_STRING, &rule, "ratio|paper", "with --photos: the relighting rule (default ratio)"},
         {"heldout", 0, CLI_OPT_STRING, &heldout, "IDS.txt", "with --photos: the held-out people, reported apart"},
         {"limit", 0, CLI_OPT_INT, &limit, "N", "with --photos: only the first N people"},
@@ -323,7 +326,8 @@ int cmd_eval(int argc, char **argv)
     if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
     if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
     if (photos + pairs + multilight > 1) return cli_usage_error(&spec, "--photos, --pairs and --multilight exclude each other");
-    if ((ml_lights || refs) && !multilight) return cli_usage_error(&spec, "--lights and --refs go with --multilight");
+    if ((ml_lights || refs || free_level) && !multilight)
+        return cli_usage_error(&spec, "--lights, --refs and --no-keep-brightness go with --multilight");
     hd_photo_rule how = {strcmp(rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, guard};
     if (source && cli_source_light_parse(&spec, source, &how.source)) return CLI_EXIT_USAGE;
     if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
@@ -344,6 +348,7 @@ int cmd_eval(int argc, char **argv)
         hd_ml_options o;
         memset(&o, 0, sizeof o);
         o.refs = refs, o.limit = limit, o.sheets = sheets, o.rule = how.rule, o.source = how.source, o.guard = guard;
+        o.brightness = free_level ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
         if (ml_lights && parse_ml_lights(&spec, ml_lights, &o)) return CLI_EXIT_USAGE;
         return multilight_eval(data, model_path, &o, &jo);
     }

@@ -460,7 +460,7 @@ static hd_status model_rows(run *R, int s, const hd_image *frontal, const float 
             light_of[count++] = j;
         }
     }
-    hd_apply_request q = {lights, count, 0, 0, R->o->rule, HD_BRIGHTNESS_KEEP, R->o->source, R->o->guard, "eval"};
+    hd_apply_request q = {lights, count, 0, 0, R->o->rule, R->o->brightness, R->o->source, R->o->guard, "eval"};
     hd_apply_result res;
     hd_status st = hd_apply_photo(R->model, R->aligner, frontal, &q, &res);
     const int applied = st == HD_OK;

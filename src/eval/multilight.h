@@ -62,6 +62,7 @@ typedef struct hd_ml_options {
     hd_relight_rule rule;
     hd_source_light source;
     float guard;
+    hd_brightness brightness;        /* of the relight and transfer rows (HD_BRIGHTNESS_KEEP: `hdnet relight`'s) */
 } hd_ml_options;
 typedef struct hd_ml_stat {
     double mean, median;
