@@ -231,8 +231,9 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
             for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9.2f", r.per_light[k][j].mean);
             printf("\n");
         }
-        printf("\nnormals against photometric stereo: %.2f degrees mean, %.2f median over %ld subjects"
-               " (a flat front-facing map: %.2f)\n", r.normals.mean, r.normals.median, r.normals.n, r.normals_flat.mean);
+        printf("\nnormals against photometric stereo: %.2f degrees mean, %.2f median over %ld subjects\n"
+               "(a flat front-facing map: %.2f; the coarse normals, the canonical mesh posed on the landmarks: %.2f)\n",
+               r.normals.mean, r.normals.median, r.normals.n, r.normals_flat.mean, r.normals_coarse.mean);
         printf("light estimated from each target photo against its true direction: %.2f degrees mean, %.2f median (%ld photos)\n",
                r.light_error.mean, r.light_error.median, r.light_error.n);
         printf("faces missed: %d frontal photos, %d target photos (%d references left out of the transfer)",

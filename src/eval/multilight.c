@@ -289,7 +289,7 @@ typedef struct run {
     subject *subj;
     int nsubj;
     values rows[HD_ML_ROWS], per_light[HD_ML_ROWS][HD_ML_MAX_LIGHTS];
-    values normals, normals_flat, light_error;
+    values normals, normals_flat, normals_coarse, light_error;
 } run;
 
 static void say(const run *R, const char *what, const char *reason)
@@ -560,9 +560,12 @@ static hd_status score_subject(run *R, int s)
     float *mask = found ? maps.mask.data : NULL, *pred = hd_malloc((P ? P : 1) * sizeof(float));
     if (st == HD_OK && !pred) st = HD_ERR_NOMEM;
     if (st == HD_OK && found && R->o->sheets) st = hd_image_alloc(&ps_normal, frontal.width, frontal.height, 3);
-    /* the normals: the model's against photometric stereo's (and a flat map's) over the face */
+    /* the normals: the model's against photometric stereo's over the face, with a flat map's and
+     * the coarse normals' (the canonical mesh posed on the landmarks, what the model starts from) */
+    hd_image coarse = {0}, coarse_cover = {0};
+    if (st == HD_OK && found) st = hd_warp_back(&maps.faces[0], &maps.faces[0].normal, NULL, &coarse, &coarse_cover);
     if (st == HD_OK && found) {
-        double sum = 0, flat = 0;
+        double sum = 0, flat = 0, crs = 0;
         long cnt = 0;
         for (size_t p = 0; p < P; p++) {
             float b[3];
@@ -571,14 +574,20 @@ static hd_status score_subject(run *R, int s)
             if (!(len > 1e-6f)) continue;
             const float t[3] = {b[0] / len, b[1] / len, b[2] / len}, z[3] = {0, 0, 1};
             const float mn[3] = {maps.normal.data[p], maps.normal.data[P + p], maps.normal.data[2 * P + p]};
+            float cn[3] = {coarse.data[p], coarse.data[P + p], coarse.data[2 * P + p]};
             if (ps_normal.data)
                 for (int k = 0; k < 3; k++) ps_normal.data[(size_t)k * P + p] = t[k];
             if (mn[0] == 0 && mn[1] == 0 && mn[2] == 0) continue;
-            sum += angle_deg(mn, t), flat += angle_deg(z, t), cnt++;
+            const float cl = sqrtf(cn[0] * cn[0] + cn[1] * cn[1] + cn[2] * cn[2]);
+            if (!(coarse_cover.data[p] > 0.5f) || !(cl > 1e-6f)) cn[0] = mn[0], cn[1] = mn[1], cn[2] = mn[2];
+            else cn[0] /= cl, cn[1] /= cl, cn[2] /= cl;
+            sum += angle_deg(mn, t), flat += angle_deg(z, t), crs += angle_deg(cn, t), cnt++;
         }
         if (cnt > 0) st = push(&R->normals, sum / (double)cnt);
         if (st == HD_OK && cnt > 0) st = push(&R->normals_flat, flat / (double)cnt);
+        if (st == HD_OK && cnt > 0) st = push(&R->normals_coarse, crs / (double)cnt);
     }
+    hd_image_free(&coarse), hd_image_free(&coarse_cover);
     /* the input unchanged and the bound, per target light */
     for (int j = 0; j < L && st == HD_OK && found; j++) {
         if (S->target[j] < 0 || !truths[j].data) continue;
@@ -661,11 +670,12 @@ hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const
         for (int j = 0; j < r->nlights; j++) r->per_light[k][j] = summary(&R.per_light[k][j]);
     }
     r->normals = summary(&R.normals), r->normals_flat = summary(&R.normals_flat), r->light_error = summary(&R.light_error);
+    r->normals_coarse = summary(&R.normals_coarse);
     for (int k = 0; k < HD_ML_ROWS; k++) {
         free(R.rows[k].v);
         for (int j = 0; j < HD_ML_MAX_LIGHTS; j++) free(R.per_light[k][j].v);
     }
-    free(R.normals.v), free(R.normals_flat.v), free(R.light_error.v);
+    free(R.normals.v), free(R.normals_flat.v), free(R.normals_coarse.v), free(R.light_error.v);
     free(R.subj);
     hd_ml_set_free(&set);
     return st;
@@ -708,6 +718,7 @@ char *hd_ml_report_json(const hd_ml_report *r)
     }
     cJSON_AddItemToObject(root, "normals_deg", stat_json(&r->normals));
     cJSON_AddItemToObject(root, "normals_flat_deg", stat_json(&r->normals_flat));
+    cJSON_AddItemToObject(root, "normals_coarse_deg", stat_json(&r->normals_coarse));
     cJSON_AddItemToObject(root, "light_error_deg", stat_json(&r->light_error));
     cJSON_AddNumberToObject(root, "subjects", r->subjects);
     cJSON_AddNumberToObject(root, "sources_missed", r->sources_missed);

@@ -73,7 +73,7 @@ typedef struct hd_ml_report {
     float az[HD_ML_MAX_LIGHTS], el[HD_ML_MAX_LIGHTS];
     hd_ml_stat rows[HD_ML_ROWS];                    /* over every (subject, light[, reference]) */
     hd_ml_stat per_light[HD_ML_ROWS][HD_ML_MAX_LIGHTS];
-    hd_ml_stat normals, normals_flat;               /* degrees, a subject's mean over its face */
+    hd_ml_stat normals, normals_flat, normals_coarse; /* degrees, a subject's mean over its face */
     hd_ml_stat light_error;                         /* degrees, estimate-light against the truth */
     int subjects, sources_missed, refs_missed, photos_absent, photos_dark;
     char missed[HD_ML_MAX_MISSED][64];              /* the first photos whose face was not found */
