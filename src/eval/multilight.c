@@ -512,46 +512,55 @@ static hd_status write_sheet(const run *R, const subject *S, const hd_image *fro
 
 /* Pass 2 for subject s: photometric stereo from its photos, the model's normals against it, the
  * four rows against the real photos. */
-static hd_status score_subject(run *R, int s)
+static hd_status score_subject(run *R, int s, int *scored)
 {
+    *scored = 1;
     const subject *S = &R->subj[s];
     const hd_ml_set *set = R->set;
     const int L = R->r->nlights;
-    /* the subject's photos in front of the face plane, not dark */
+    /* the subject's photos that are not dark; those with the light in front of the face plane
+     * make the photometric stereo */
     int n = 0;
     for (int i = 0; i < set->count; i++) n += !strcmp(set->rows[i].subject, S->name);
-    hd_image *ph = hd_calloc((size_t)n, sizeof *ph), truths[HD_ML_MAX_LIGHTS], frontal = {0}, ps_normal = {0};
+    hd_image *ph = hd_calloc((size_t)n, sizeof *ph), *front = hd_calloc((size_t)n, sizeof *front);
+    hd_image truths[HD_ML_MAX_LIGHTS], frontal = {0}, ps_normal = {0};
     float (*dirs)[3] = hd_malloc((size_t)n * sizeof *dirs);
+    int in_ps[HD_ML_MAX_LIGHTS] = {0};
     sheet_row *sheet = R->o->sheets ? hd_calloc((size_t)L, sizeof *sheet) : NULL;
     memset(truths, 0, sizeof truths);
-    hd_status st = ph && dirs && (sheet || !R->o->sheets) ? HD_OK : HD_ERR_NOMEM;
-    int m = 0, fm = -1;
+    hd_status st = ph && front && dirs && (sheet || !R->o->sheets) ? HD_OK : HD_ERR_NOMEM;
+    int m = 0, nf = 0, fm = -1;
     for (int i = 0; i < set->count && st == HD_OK; i++) {
         if (strcmp(set->rows[i].subject, S->name)) continue;
-        hd_ml_direction(set->rows[i].az, set->rows[i].el, dirs[m]);
-        if (dirs[m][2] < PS_FRONT) continue;
         st = load(R, i, &ph[m], i == S->frontal ? &frontal : NULL);
         if (st == HD_OK && mean_of(&ph[m]) < DARK_MEAN) {
             hd_image_free(&ph[m]);
             continue;
         }
+        float d[3];
+        hd_ml_direction(set->rows[i].az, set->rows[i].el, d);
+        const int use = d[2] >= PS_FRONT;
         for (int j = 0; j < L && st == HD_OK; j++)
-            if (S->target[j] == i) st = hd_image_convert(&ph[m], 1, &truths[j]);
+            if (S->target[j] == i) st = hd_image_convert(&ph[m], 1, &truths[j]), in_ps[j] = use;
         if (st == HD_OK && m > 0 && (ph[m].width != ph[0].width || ph[m].height != ph[0].height))
             st = hd_fail(HD_ERR_FORMAT, "%s/%s: %d x %d, the subject's other photos are %d x %d", set->dir,
                          set->rows[i].file, ph[m].width, ph[m].height, ph[0].width, ph[0].height);
         if (st == HD_OK && i == S->frontal) fm = m;
+        if (st == HD_OK && use) front[nf] = ph[m], memcpy(dirs[nf++], d, sizeof d);
         if (st == HD_OK) m++;
     }
-    if (st == HD_OK && fm < 0) st = hd_fail(HD_ERR_FORMAT, "%s: the frontal photo of %s is dark", set->dir, S->name);
+    if (st == HD_OK && fm < 0) { /* the frontal photo is dark: nothing to relight */
+        say(R, set->rows[S->frontal].file, "the frontal photo is dark: the subject is left out");
+        *scored = 0;
+    }
     hd_ps ps = {0};
-    if (st == HD_OK) st = hd_ps_build(ph, (const float (*)[3])dirs, m, &ps);
+    if (st == HD_OK && fm >= 0) st = hd_ps_build(front, (const float (*)[3])dirs, nf, &ps);
     const size_t P = st == HD_OK ? (size_t)frontal.width * frontal.height : 0;
     hd_photo_maps maps;
     memset(&maps, 0, sizeof maps);
-    if (st == HD_OK) st = hd_decompose_photo_maps(R->model, R->aligner, &frontal, &maps);
-    int found = st == HD_OK;
-    if (st == HD_ERR_NOTFOUND) {
+    if (st == HD_OK && *scored) st = hd_decompose_photo_maps(R->model, R->aligner, &frontal, &maps);
+    int found = st == HD_OK && *scored;
+    if (st == HD_ERR_NOTFOUND && *scored) {
         hd_clear_error();
         st = HD_OK;
         R->r->sources_missed++;
@@ -596,7 +605,7 @@ static hd_status score_subject(run *R, int s)
         for (size_t p = 0; p < P; p++) {
             float b[3];
             const float v = truths[j].data[p];
-            pred[p] = hd_ps_solve(&ps, p, &v, l, b) ? fmaxf(0.0f, b[0] * l[0] + b[1] * l[1] + b[2] * l[2]) : 0.0f;
+            pred[p] = hd_ps_solve(&ps, p, in_ps[j] ? &v : NULL, l, b) ? fmaxf(0.0f, b[0] * l[0] + b[1] * l[1] + b[2] * l[2]) : 0.0f;
         }
         double e = hd_ml_si_mse(pred, truths[j].data, mask, P);
         st = push(&R->rows[HD_ML_PS], e);
@@ -612,14 +621,14 @@ static hd_status score_subject(run *R, int s)
                     float b[3];
                     const float v = truths[j].data[p];
                     sheet[j].ps.data[p] =
-                        hd_ps_solve(&ps, p, &v, l, b) ? fminf(1.0f, fmaxf(0.0f, b[0] * l[0] + b[1] * l[1] + b[2] * l[2])) : 0.0f;
+                        hd_ps_solve(&ps, p, in_ps[j] ? &v : NULL, l, b) ? fminf(1.0f, fmaxf(0.0f, b[0] * l[0] + b[1] * l[1] + b[2] * l[2])) : 0.0f;
                 }
             }
         }
     }
     if (st == HD_OK && found) st = model_rows(R, s, &frontal, mask, truths, sheet);
     if (st == HD_OK && found && sheet) st = write_sheet(R, S, &frontal, sheet, &maps, &ps_normal);
-    for (int i = 0; i < m; i++) hd_image_free(&ph[i]);
+    for (int i = 0; ph && i < n; i++) hd_image_free(&ph[i]); /* front[] shares their pixels */
     for (int j = 0; j < L; j++) {
         hd_image_free(&truths[j]);
         if (sheet) hd_image_free(&sheet[j].truth), hd_image_free(&sheet[j].relit), hd_image_free(&sheet[j].transfer),
@@ -628,7 +637,7 @@ static hd_status score_subject(run *R, int s)
     hd_photo_maps_free(&maps);
     hd_ps_free(&ps);
     hd_image_free(&frontal), hd_image_free(&ps_normal);
-    free(ph), free(dirs), free(pred), free(sheet);
+    free(ph), free(front), free(dirs), free(pred), free(sheet);
     return st;
 }
 
@@ -660,9 +669,10 @@ hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const
     if (st == HD_OK) st = estimate_lights(&R, progress);
     for (int s = 0; s < R.nsubj && st == HD_OK; s++) {
         if (R.subj[s].frontal < 0) continue;
-        st = score_subject(&R, s);
+        int scored = 0;
+        st = score_subject(&R, s, &scored);
         if (st != HD_OK) break;
-        r->subjects++;
+        r->subjects += scored;
         if (progress) progress(R.nsubj + s + 1, 2 * R.nsubj, R.subj[s].name);
     }
     for (int k = 0; k < HD_ML_ROWS; k++) {
