@@ -45,7 +45,7 @@ grep -q '"guard":	0.1' lnet.json || fail "lnet.json does not give the guard 0.1"
 expect_saying 2 "--rule wants" "$HDNET" eval "$people" --photos --rule other
 expect_saying 2 "fit or lnet" "$HDNET" eval "$people" --photos --source-light other
 expect_saying 2 "--guard wants" "$HDNET" eval "$people" --photos --guard -1
-expect_saying 2 "--guard goes with --photos or --pairs" "$HDNET" eval "$people" --guard 0.1
+expect_saying 2 "--guard goes with --photos, --pairs or --multilight" "$HDNET" eval "$people" --guard 0.1
 expect_saying 2 "exclude" "$HDNET" eval "$people" --photos --pairs
 
 # paired synthetic set

@@ -76,7 +76,7 @@ grep -q "^predictions  *0.00 +-  0.00   100.0   100.0   100.0 |  0.0000  0.0000 
 expect 0 "$HDNET" eval set --pred zpred --source-light lnet -o lnet.json
 cmp -s zero.json lnet.json || fail "--source-light lnet is not the ground-truth evaluation's default"
 expect_saying 2 "fit or lnet" "$HDNET" eval set --pred pred --source-light other
-expect_saying 2 "goes with --photos or --pairs" "$HDNET" eval set --pred pred --guard 0.1
+expect_saying 2 "goes with --photos, --pairs or --multilight" "$HDNET" eval set --pred pred --guard 0.1
 # a flat folder (one subject's images directly in DATA): decompose writes OUT/NAME.*, which is
 # where eval --pred looks for them (the naming rule, docs/usage.md)
 expect 0 "$HDNET" init --width 4 --size 32 --seed 2 -o flat.safetensors
