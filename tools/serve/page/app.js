@@ -63,7 +63,7 @@
     previews: 0,      // frames relit in the page (for tests)
     busy: false,
   };
-  window.hdnet = { state, lightFromDirection, shade };
+  window.hdnet = { state, lightFromDirection, shade, relight: () => relightInPage() };
 
   function say(text, error) {
     ui.status.textContent = text;
