@@ -313,22 +313,29 @@
     if (!(sigma > 0.3)) return;
     const r = Math.ceil(3 * sigma);
     if (r > 10) return blurBoxes(v, w, h, sigma, tmp);
-    const k = new Float32Array(2 * r + 1);
+    const k = new Float32Array(2 * r + 1), n = 2 * r + 1, line = new Float32Array(w + 2 * r);
     let sum = 0;
     for (let i = -r; i <= r; i++) sum += k[i + r] = Math.exp(-0.5 * i * i / (sigma * sigma));
-    for (let i = 0; i <= 2 * r; i++) k[i] /= sum;
-    for (let y = 0; y < h; y++)
+    for (let i = 0; i < n; i++) k[i] /= sum;
+    for (let y = 0; y < h; y++) { // the rows, each copied with its ends extended by r
+      const o = y * w;
+      line.fill(v[o], 0, r);
+      line.set(v.subarray(o, o + w), r);
+      line.fill(v[o + w - 1], r + w);
       for (let x = 0; x < w; x++) {
         let acc = 0;
-        for (let i = -r; i <= r; i++) acc += k[i + r] * v[y * w + Math.min(w - 1, Math.max(0, x + i))];
-        tmp[y * w + x] = acc;
+        for (let i = 0; i < n; i++) acc += k[i] * line[x + i];
+        tmp[o + x] = acc;
       }
-    for (let y = 0; y < h; y++)
-      for (let x = 0; x < w; x++) {
-        let acc = 0;
-        for (let i = -r; i <= r; i++) acc += k[i + r] * tmp[Math.min(h - 1, Math.max(0, y + i)) * w + x];
-        v[y * w + x] = acc;
+    }
+    for (let y = 0; y < h; y++) { // the columns, a row of taps at a time
+      const o = y * w;
+      for (let i = 0; i < n; i++) {
+        const s = Math.min(h - 1, Math.max(0, y + i - r)) * w, ki = k[i];
+        if (i === 0) for (let x = 0; x < w; x++) v[o + x] = ki * tmp[s + x];
+        else for (let x = 0; x < w; x++) v[o + x] += ki * tmp[s + x];
       }
+    }
   }
   function blurBoxes(v, w, h, sigma, tmp) {
     let wl = Math.floor(Math.sqrt(4 * sigma * sigma + 1)); // odd widths wl and wl + 2 (Wells, 1986)
@@ -389,6 +396,7 @@
     const ww = Math.max(1, wx1 - wx0), wh = Math.max(1, wy1 - wy0);
     const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
+      level: new Uint8Array(count), top: new Float32Array(count), wLum: new Float32Array(count), goal: 0,
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
       face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count),
       faces: faces.length, fill: count ? pyramid(ww, wh) : null, known: new Float32Array(count ? ww * wh : 0),
@@ -407,7 +415,11 @@
       m.px[j] = p;
       m.cell[j] = (py - wy0) * ww + (px - wx0);
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
-      m.w[j] = weight.data[4 * p] / 255;
+      m.level[j] = weight.data[4 * p];
+      m.w[j] = m.level[j] / 255;
+      m.top[j] = Math.max(m.rgb[3 * j], m.rgb[3 * j + 1], m.rgb[3 * j + 2]);
+      m.wLum[j] = m.w[j] * (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
+      m.goal += m.wLum[j];
       m.face[j] = k;
       if (k >= 0 && skin.data[4 * p] > 0) {
         const [x, y, z] = unitNormal(normal.data, 4 * p);
@@ -531,30 +543,30 @@
       for (let j = 0; j < m.n; j++) L[j] = f.v[m.cell[j]];
       for (const hd of m.heads) relightHead(hd, l, f.v, L);
     }
-    const lum = new Float32Array(m.n);
-    let goal = 0;
-    for (let j = 0; j < m.n; j++) {
-      lum[j] = 0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2];
-      goal += m.w[j] * lum[j];
-    }
+    // exp(w (L + t)) = exp(w L) exp(w t), and w is one of 256 levels: exp(w t) is a table
+    const e = new Float32Array(m.n), E = new Float64Array(256), table = (t) => {
+      for (let q = 0; q < 256; q++) E[q] = Math.exp(q / 255 * t);
+    };
+    for (let j = 0; j < m.n; j++) e[j] = Math.exp(m.w[j] * L[j]);
     let t = 0;
-    if (ui.keep.checked && goal > 0)
+    if (ui.keep.checked && m.goal > 0)
       for (let it = 0; it < 6; it++) { // Newton on sum w lum exp(w (L + t)) = goal
         let f = 0, df = 0;
+        table(t);
         for (let j = 0; j < m.n; j++) {
-          const v = m.w[j] * lum[j] * Math.exp(m.w[j] * (L[j] + t));
+          const v = m.wLum[j] * e[j] * E[m.level[j]];
           f += v;
           df += m.w[j] * v;
         }
         if (!(df > 0)) break;
-        t -= (f - goal) / df;
+        t -= (f - m.goal) / df;
       }
+    table(t);
     for (let j = 0; j < m.n; j++) {
-      const p = 4 * m.px[j], I = m.rgb.subarray(3 * j, 3 * j + 3);
-      let k = Math.exp(m.w[j] * (L[j] + t));
-      const top = Math.max(I[0], I[1], I[2]);
+      const p = 4 * m.px[j], r = m.rgb[3 * j], g = m.rgb[3 * j + 1], b = m.rgb[3 * j + 2], top = m.top[j];
+      let k = e[j] * E[m.level[j]];
       if (top > 0 && k * top > 1) k = 1 / top;
-      for (let c = 0; c < 3; c++) d[p + c] = 255 * k * I[c] + 0.5;
+      d[p] = 255 * k * r + 0.5, d[p + 1] = 255 * k * g + 0.5, d[p + 2] = 255 * k * b + 0.5;
     }
     photoCtx.putImageData(m.out, 0, 0);
     state.previews++;
