@@ -1,8 +1,8 @@
 // serve_page.mjs: the browser test of `hdnet serve` (make test-browser). Starts the server on a free
 // loopback port, drives Debian's headless chromium with playwright-core: loads the page, uploads
 // the bundled photo, drags the light on the sphere to the left and then to the right and checks
-// that the face on the canvas brightens on the side of the light (and nothing outside the faces
-// changes), moves the light with the keyboard, toggles before/after, clicks preset 1 and "Render"
+// that the face on the canvas brightens on the side of the light (and nothing outside the heads
+// changes), prints the time of one preview frame, moves the light with the keyboard, toggles before/after, clicks preset 1 and "Render"
 // and checks that the canvas then holds exactly the server's relight, delights, saves screenshots
 // (SHOT.png after the render, SHOT-live.png of the preview with the light on the left),
 // and checks that the page asked nothing of any other host. Prints one line per check and
@@ -61,7 +61,8 @@ function halves(page, box) {
 }
 
 // Pixels of the canvas that differ from the uploaded photo: where the server's weight map is above 0
-// (the faces' meshes, the foreheads grown to the hairline and the fade into the hair), and elsewhere.
+// (the render's final weight: the faces' meshes and, over each head, the skin and the hair beyond
+// them, src/apply/head.c), and elsewhere.
 function changes(page) {
   return page.evaluate(() => {
     const c = document.getElementById('photo'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
@@ -144,7 +145,7 @@ try {
   });
   console.log('frame: ' + frameMs.toFixed(1) + ' ms for one preview of the ' + photo.width + ' x ' + photo.height + ' photo');
   const ch = await changes(page);
-  check(ch.inside > 500 && ch.outside === 0, 'only the face changes',
+  check(ch.inside > 500 && ch.outside === 0, 'only the head changes',
     `${ch.inside} pixels changed where the server's weight map is above 0, ${ch.outside} elsewhere`);
 
   await page.focus('#sphere');
