@@ -186,9 +186,11 @@ try {
     return { diff: sum / n, change: moved / n, n: n / 3 };
   });
   // within 7 % of the change: the preview takes the server's weight and skin maps, fills log r
-  // beyond the skin by push-pull and blurs it as the render does (docs/serve.md); on this
-  // photo it differs by 4.6 % of the change (1.79 levels of 39.1; 26 % before it took the server's maps),
-  // most of what is left in the open mouth, which the render fills in the texture, where it is a sliver
+  // beyond the skin by push-pull and blurs it as the render does, then hands it over to each head's
+  // rule from the server's head maps as hd_head_apply does (docs/serve.md); on this photo it
+  // differs by 3.1 % of the change (1.34 levels of 43.1; 50 % when the render took the whole head
+  // and the preview the face alone, 4.6 % of 39.1 before the head, 26 % before it took the server's
+  // maps), most of what is left in the open mouth, which the render fills in the texture, where it is a sliver
   check(near.n > 500 && near.diff < 0.07 * near.change, 'the preview is close to the server\'s render',
     `mean difference ${near.diff.toFixed(2)} levels over ${near.n} pixels, where the render changes them by ` +
     `${near.change.toFixed(2)}: ${(100 * near.diff / near.change).toFixed(1)} %`);
