@@ -77,14 +77,15 @@ call 201 up2.json -H 'Content-Type: image/jpeg' --data-binary @"$jpeg" "$base/ap
 id2=$(id_of up2.json)
 grep -q '"width":675,"height":675' up2.json || fail "JPEG upload: wrong size in $(head -c 200 up2.json)"
 
-# ---- maps: six PNGs of the photo's size, named in the upload's JSON
-for m in photo normal shading mask weight skin; do
+# ---- maps: ten PNGs of the photo's size, named in the upload's JSON
+grep -q '"head":{"window":\[' up1.json || fail "upload: no head window in $(head -c 200 up1.json)"
+for m in photo normal shading mask weight skin head_normal head_proxy head_weights head_mesh; do
     grep -q "\"$m\":\"/api/photos/$id1/maps/$m.png\"" up1.json || fail "the upload's maps do not name $m.png"
     call 200 "$m.png" "$base/api/photos/$id1/maps/$m.png"
     [ "$(png_size "$m.png")" = "512 512" ] || fail "map $m is $(png_size "$m.png"), not 512 512"
 done
 "$HDNET" info normal.png >info.txt 2>&1 || fail "the normal map is not a readable PNG: $(cat info.txt)"
-# the weight map is the render's weight (hd_photo_face_weight) within a level, 0 where it is 0
+# the weight map is the render's weight (hd_photo_face_weight, then hd_head_weight) within a level, 0 where it is 0
 helper=${BUILD:-$root/build}/tests/serve_weight
 [ -x "$helper" ] || fail "$helper is not built (make tests)"
 HDNET_DATA=${HDNET_DATA:-$root/models} "$helper" "$photo" weight.png >weight.txt 2>&1 || fail "the weight map: $(cat weight.txt)"

@@ -1,13 +1,16 @@
-/* serve_weight.c: the check behind tests/serve_api.sh's weight map. Aligns the photo's faces as
- * `hdnet serve` and `hdnet relight` do (the shipped model's texture size), computes the weight the
- * ratio rule applies each face's change with (hd_photo_face_weight, the largest over the faces) and
- * compares it with the 8-bit map the server sent: every pixel within one level (half a level of
- * rounding, and a weight under half a level is sent as one), and 0 exactly where the weight is 0.
- * Exits 1 on the first pixel that differs, printing it and both values.
+/* serve_weight.c: the check behind tests/serve_api.sh's weight map. Aligns and decomposes the
+ * photo's faces as `hdnet serve` and `hdnet relight` do (the shipped model's texture size),
+ * computes the weight the ratio rule applies each face's change with as hd_apply_photo does
+ * (hd_photo_face_weight, then over the whole head hd_head_init and hd_head_weight under the face's
+ * own light; the largest over the faces) and compares it with the 8-bit map the server sent: every
+ * pixel within one level (half a level of rounding, and a weight under half a level is sent as
+ * one), and 0 exactly where the weight is 0. Exits 1 on the first pixel that differs, printing it
+ * and both values.
  *     serve_weight PHOTO.png WEIGHT.png */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include "hdnet_tool.h"
 
 int main(int argc, char **argv)
@@ -34,9 +37,19 @@ int main(int argc, char **argv)
     if (st == HD_OK && (!(weight = hd_calloc(P, sizeof *weight)) || !(one = hd_malloc(P * sizeof *one))))
         st = HD_ERR_NOMEM;
     for (int k = 0; k < n && st == HD_OK; k++) {
-        st = hd_photo_face_weight(&faces[k], &photo, one);
+        hd_decomposition d;
+        hd_head head;
+        float light[HD_SH_COEFFS];
+        memset(&d, 0, sizeof d), memset(&head, 0, sizeof head);
+        st = hd_model_decompose(model, &faces[k].texture, 1, &d);
+        if (st == HD_OK) st = hd_face_light(&d, &faces[k].mask, HD_SOURCE_FIT, light);
+        if (st == HD_OK) st = hd_photo_face_weight(&faces[k], &photo, one);
+        if (st == HD_OK) st = hd_head_init(&faces[k], &d, &photo, light, 0.0f, &head);
+        if (st == HD_OK) st = hd_head_weight(&head, one);
         for (size_t p = 0; st == HD_OK && p < P; p++)
             if (one[p] > weight[p]) weight[p] = one[p];
+        hd_head_free(&head);
+        hd_decomposition_free(&d);
     }
     if (st != HD_OK) {
         fprintf(stderr, "serve_weight: %s\n", hd_error());

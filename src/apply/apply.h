@@ -129,6 +129,9 @@ hd_status hd_head_weight(hd_head *h, float *weight);
  * flat light. After hd_head_weight. */
 hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], const hd_light_rgb *target,
                         hd_image *field);
+/* The blur hd_head_apply gives the head's log ratios (a Gaussian's sigma, photo pixels; 0 for an
+ * empty head): for a client that redoes hd_head_apply from h's maps (`hdnet serve`'s page). */
+float hd_head_blur(const hd_head *h);
 
 /* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,

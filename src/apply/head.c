@@ -425,6 +425,8 @@ hd_status hd_head_weight(hd_head *h, float *weight)
     return HD_OK;
 }
 
+float hd_head_blur(const hd_head *h) { return h && h->normal ? HEAD_FIELD_BLUR * h->frame.e : 0.0f; }
+
 hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], const hd_light_rgb *target,
                         hd_image *field)
 {
@@ -442,8 +444,8 @@ hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], cons
         const float *tl = target ? target->sh[c] : NULL;
         log_ratio(h->normal, N, source, tl, h->g, skin_lr, scratch);
         log_ratio(h->proxy, N, source, tl, h->g, hair_lr, scratch);
-        st = hd_field_blur(skin_lr, h->w, h->h, HEAD_FIELD_BLUR * h->frame.e);
-        if (st == HD_OK) st = hd_field_blur(hair_lr, h->w, h->h, HEAD_FIELD_BLUR * h->frame.e);
+        st = hd_field_blur(skin_lr, h->w, h->h, hd_head_blur(h));
+        if (st == HD_OK) st = hd_field_blur(hair_lr, h->w, h->h, hd_head_blur(h));
         float *F = field->data + (size_t)c * P;
         /* beyond the face the change stays within the face's own: the proxy's up- and side-facing
          * normals may see a light the face does not */

@@ -5,9 +5,10 @@
  * warped back into the photo with the face's mesh (hd_warp_back), and a mask that is 1 inside the
  * faces and falls to 0 over a few pixels at their edge, and the weight the render applies each
  * face's change with (hd_photo_face_weight: the feather inside the mesh's edge, the forehead grown
- * to the hairline with its outward fade), the skin where the render's log r is the model's own
- * (the mesh outside the eyes, mouth and brows of hd_face_regions_uv), each warped as the render
- * warps its field: the page's preview takes them. The store keeps at most N photos and evicts the least
+ * to the hairline with its outward fade; then over the whole head, hd_head_weight), the skin where
+ * the render's log r is the model's own (the mesh outside the eyes, mouth and brows of
+ * hd_face_regions_uv), each warped as the render warps its field, and the heads' normals and
+ * weights (hd_head, as hd_apply_photo sets them up): the page's preview takes them. The store keeps at most N photos and evicts the least
  * recently used; a photo in use by a request is freed only when that request lets it go. */
 #include <math.h>
 #include <stdlib.h>
@@ -16,7 +17,9 @@
 #include "hdnet_tool.h"
 #include "serve.h"
 
-const char *const serve_map_names[SERVE_MAPS] = {"photo", "normal", "shading", "mask", "weight", "skin"};
+const char *const serve_map_names[SERVE_MAPS] = {"photo",       "normal",     "shading",      "mask",     "weight",
+                                                   "skin",        "head_normal", "head_proxy", "head_weights",
+                                                   "head_mesh"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -104,35 +107,80 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
     return st;
 }
 
-/* weight = max(weight, face f's render weight); scratch is photo-sized. */
-static hd_status add_face_weight(const hd_aligned_face *f, const hd_image *photo, float *scratch, hd_image *weight)
+/* The heads' maps (hd_head, docs/usage.md "The whole head"), photo-sized: over each face's window,
+ * a later face's over an earlier's, the blended normals and the proxy's, the skin's and the hair's
+ * weights with how near the skin (ws, wh, near) and how much of the face's own field holds (mesh). */
+typedef struct head_maps {
+    hd_image normal, proxy, weights, mesh;
+} head_maps;
+
+/* An 8-bit map's value for a weight: one level for a weight above 0 but under half a level, so that
+ * the map is 0 exactly where the weight is. */
+static float level_of_weight(float w) { return w > 0.0f && w < 0.5f / 255.0f ? 1.0f / 255.0f : w; }
+
+/* Face f's render weight, as hd_apply_photo computes it (hd_photo_face_weight, then over its head
+ * hd_head_weight), into weight as the largest over the faces so far; its head's maps into hm and
+ * its window, guard and blur into sf. light is its own light; scratch is photo-sized. */
+static hd_status add_face_weight(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                                 float *scratch, hd_image *weight, head_maps *hm, serve_face *sf)
 {
+    hd_head h;
+    memset(&h, 0, sizeof h);
     hd_status st = hd_photo_face_weight(f, photo, scratch);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, sf->light, 0.0f, &h);
+    if (st == HD_OK) st = hd_head_weight(&h, scratch);
     for (size_t p = 0; st == HD_OK && p < (size_t)weight->width * weight->height; p++)
         if (scratch[p] > weight->data[p]) weight->data[p] = scratch[p];
+    memset(sf->head, 0, sizeof sf->head);
+    sf->head_guard = sf->head_blur = 0.0f;
+    if (st == HD_OK && h.normal) {
+        sf->head[0] = h.x0, sf->head[1] = h.y0, sf->head[2] = h.w, sf->head[3] = h.h;
+        sf->head_guard = h.g, sf->head_blur = hd_head_blur(&h);
+        const size_t N = (size_t)h.w * h.h, P = (size_t)h.W * h.H;
+        for (int y = 0; y < h.h; y++)
+            for (int x = 0; x < h.w; x++) {
+                const size_t i = (size_t)y * h.w + x, p = (size_t)(y + h.y0) * h.W + (x + h.x0);
+                for (int c = 0; c < 3; c++) {
+                    hm->normal.data[c * P + p] = (h.normal[c * N + i] + 1.0f) * 0.5f;
+                    hm->proxy.data[c * P + p] = (h.proxy[c * N + i] + 1.0f) * 0.5f;
+                }
+                hm->weights.data[p] = level_of_weight(h.ws[i]);
+                hm->weights.data[P + p] = level_of_weight(h.wh[i]);
+                hm->weights.data[2 * P + p] = h.near[i];
+                /* 255 exactly where the face's own field holds fully (the page's mesh >= 1) */
+                hm->mesh.data[p] = h.mesh[i] >= 1.0f ? 1.0f : fminf(h.mesh[i], 254.0f / 255.0f);
+            }
+    }
+    hd_head_free(&h);
     return st;
 }
 
 /* The maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces), shading as
  * s / 2, the feathered mask, the render's weight (a weight above 0 but under half a level is sent
  * as one level, so the map is 0 exactly where the render leaves the photo as it is), the skin (1
- * where the render's log r is the model's own, 0 where it is filled). */
+ * where the render's log r is the model's own, 0 where it is filled), and the heads' (head_maps;
+ * normals as (n + 1) / 2, ws and wh as the weight). */
 static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
     face_maps fm = {0};
+    head_maps hm = {0};
     hd_image weight = {0}, encoded = {0};
     hd_status st = hd_image_alloc(&fm.normal, W, H, 3);
     if (st == HD_OK) st = hd_image_alloc(&fm.shading, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.mask, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.skin, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&weight, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&hm.normal, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&hm.proxy, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&hm.weights, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&hm.mesh, W, H, 1);
     float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
     if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
     float face_side = 0.0f;
     for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
         st = add_face_maps(&faces[k], &ds[k], &fm);
-        if (st == HD_OK) st = add_face_weight(&faces[k], &p->image, scratch, &weight);
+        if (st == HD_OK) st = add_face_weight(&faces[k], &ds[k], &p->image, scratch, &weight, &hm, &p->faces[k]);
         float side = fminf(faces[k].box[2] - faces[k].box[0], faces[k].box[3] - faces[k].box[1]);
         if (side > face_side) face_side = side;
     }
@@ -145,12 +193,16 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = serve_picture_encode_png(&encoded, &p->maps[SERVE_MAP_NORMAL]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.shading, &p->maps[SERVE_MAP_SHADING]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.mask, &p->maps[SERVE_MAP_MASK]);
-    for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++)
-        if (weight.data[q] > 0.0f && weight.data[q] < 0.5f / 255.0f) weight.data[q] = 1.0f / 255.0f;
+    for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++) weight.data[q] = level_of_weight(weight.data[q]);
     if (st == HD_OK) st = serve_picture_encode_png(&weight, &p->maps[SERVE_MAP_WEIGHT]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.skin, &p->maps[SERVE_MAP_SKIN]);
+    if (st == HD_OK) st = serve_picture_encode_png(&hm.normal, &p->maps[SERVE_MAP_HEAD_NORMAL]);
+    if (st == HD_OK) st = serve_picture_encode_png(&hm.proxy, &p->maps[SERVE_MAP_HEAD_PROXY]);
+    if (st == HD_OK) st = serve_picture_encode_png(&hm.weights, &p->maps[SERVE_MAP_HEAD_WEIGHTS]);
+    if (st == HD_OK) st = serve_picture_encode_png(&hm.mesh, &p->maps[SERVE_MAP_HEAD_MESH]);
     free(scratch);
-    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &weight, &encoded};
+    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask,    &fm.skin, &weight,
+                       &encoded,   &hm.normal,  &hm.proxy,   &hm.weights, &hm.mesh};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }

@@ -55,13 +55,17 @@ typedef struct serve_face {
     float box[4]; /* x0, y0, x1, y1 in photo pixels */
     float score;
     float landmarks[HD_FACE_LANDMARKS][2];
-    float light[HD_SH_COEFFS]; /* the model's estimate (L-Net) for this face */
+    float light[HD_SH_COEFFS]; /* the face's own light, as the ratio rule takes it (hd_face_light) */
+    int head[4];      /* its head's window x0, y0, w, h in photo pixels (hd_head); w 0: no head */
+    float head_guard; /* the head's guard g (hd_head) */
+    float head_blur;  /* the blur of the head's log ratios, sigma in photo pixels (hd_head_blur) */
 } serve_face;
 
 /* The maps the page relights with, all at the photo's size (docs/serve.md, "The page"). */
 enum { SERVE_MAP_PHOTO = 0, SERVE_MAP_NORMAL, SERVE_MAP_SHADING, SERVE_MAP_MASK, SERVE_MAP_WEIGHT, SERVE_MAP_SKIN,
-       SERVE_MAPS };
-/* "photo", "normal", "shading", "mask", "weight", "skin" */
+       SERVE_MAP_HEAD_NORMAL, SERVE_MAP_HEAD_PROXY, SERVE_MAP_HEAD_WEIGHTS, SERVE_MAP_HEAD_MESH, SERVE_MAPS };
+/* "photo", "normal", "shading", "mask", "weight", "skin", "head_normal", "head_proxy", "head_weights",
+ * "head_mesh" */
 extern const char *const serve_map_names[SERVE_MAPS];
 
 typedef struct serve_photo {

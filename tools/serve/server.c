@@ -148,6 +148,15 @@ static cJSON *photo_json(const serve_server *s, const serve_photo *p, const char
         add_direction(o, f->light);
         cJSON *lm = cJSON_AddArrayToObject(o, "landmarks");
         for (int i = 0; i < HD_FACE_LANDMARKS; i++) cJSON_AddItemToArray(lm, float_array(f->landmarks[i], 2, tenth));
+        if (f->head[2] > 0) { /* the head's window and rule (the head_* maps hold it) */
+            cJSON *h = cJSON_AddObjectToObject(o, "head");
+            cJSON *win = cJSON_AddArrayToObject(h, "window");
+            for (int i = 0; i < 4; i++) cJSON_AddItemToArray(win, cJSON_CreateNumber(f->head[i]));
+            cJSON_AddNumberToObject(h, "guard", precise(f->head_guard));
+            cJSON_AddNumberToObject(h, "blur", precise(f->head_blur));
+        } else {
+            cJSON_AddNullToObject(o, "head");
+        }
         cJSON_AddItemToArray(faces, o);
     }
     cJSON *maps = cJSON_AddObjectToObject(j, "maps");

@@ -63,7 +63,7 @@
     previews: 0,      // frames relit in the page (for tests)
     busy: false,
   };
-  window.hdnet = { state, lightFromDirection, shade };
+  window.hdnet = { state, lightFromDirection, shade, relight: () => relightInPage() };
 
   function say(text, error) {
     ui.status.textContent = text;
@@ -250,6 +250,10 @@
   // texture's side) and the eye distance in the texture (models/canonical_face_model.obj's UV
   // layout), which turns it into photo pixels. The weights and the skin are the server's maps.
   const RATIO_GUARD = 0.01, RATIO_BLUR = 0.012, EYE_DISTANCE_UV = 0.3076;
+  // The heads' two planes are blurred by box passes past a radius of 4 pixels (a face over about 20
+  // pixels between the eyes): on the test photo as close to the render as the exact Gaussian (the
+  // head's blur is over 0.06 eye distances, smoother than what it blurs), at a third of the cost.
+  const HEAD_BOXES_PAST = 4;
   const RIGHT_EYE = [33, 7, 163, 144, 145, 153, 154, 155, 133, 173, 157, 158, 159, 160, 161, 246];
   const LEFT_EYE = [263, 249, 390, 373, 374, 380, 381, 382, 362, 398, 384, 385, 386, 387, 388, 466];
 
@@ -306,29 +310,37 @@
   }
 
   // Gaussian blur of a w x h plane in place, sd sigma pixels (hd_field_blur: separable, edges
-  // clamped). Past a radius of 10 pixels (a face over about 80 pixels between the eyes), three box
-  // passes along the rows and three along the columns whose widths give sigma's variance instead,
-  // so that a frame's cost per pixel does not grow with the face.
-  function blur(v, w, h, sigma, tmp) {
+  // clamped). Past a radius of boxesPast pixels (10: a face field's blur for a face over about 80
+  // pixels between the eyes), three box passes along the rows and three along the columns whose
+  // widths give sigma's variance instead, so that a frame's cost per pixel does not grow with the
+  // face.
+  function blur(v, w, h, sigma, tmp, boxesPast = 10) {
     if (!(sigma > 0.3)) return;
     const r = Math.ceil(3 * sigma);
-    if (r > 10) return blurBoxes(v, w, h, sigma, tmp);
-    const k = new Float32Array(2 * r + 1);
+    if (r > boxesPast) return blurBoxes(v, w, h, sigma, tmp);
+    const k = new Float32Array(2 * r + 1), n = 2 * r + 1, line = new Float32Array(w + 2 * r);
     let sum = 0;
     for (let i = -r; i <= r; i++) sum += k[i + r] = Math.exp(-0.5 * i * i / (sigma * sigma));
-    for (let i = 0; i <= 2 * r; i++) k[i] /= sum;
-    for (let y = 0; y < h; y++)
+    for (let i = 0; i < n; i++) k[i] /= sum;
+    for (let y = 0; y < h; y++) { // the rows, each copied with its ends extended by r
+      const o = y * w;
+      line.fill(v[o], 0, r);
+      line.set(v.subarray(o, o + w), r);
+      line.fill(v[o + w - 1], r + w);
       for (let x = 0; x < w; x++) {
         let acc = 0;
-        for (let i = -r; i <= r; i++) acc += k[i + r] * v[y * w + Math.min(w - 1, Math.max(0, x + i))];
-        tmp[y * w + x] = acc;
+        for (let i = 0; i < n; i++) acc += k[i] * line[x + i];
+        tmp[o + x] = acc;
       }
-    for (let y = 0; y < h; y++)
-      for (let x = 0; x < w; x++) {
-        let acc = 0;
-        for (let i = -r; i <= r; i++) acc += k[i + r] * tmp[Math.min(h - 1, Math.max(0, y + i)) * w + x];
-        v[y * w + x] = acc;
+    }
+    for (let y = 0; y < h; y++) { // the columns, a row of taps at a time
+      const o = y * w;
+      for (let i = 0; i < n; i++) {
+        const s = Math.min(h - 1, Math.max(0, y + i - r)) * w, ki = k[i];
+        if (i === 0) for (let x = 0; x < w; x++) v[o + x] = ki * tmp[s + x];
+        else for (let x = 0; x < w; x++) v[o + x] += ki * tmp[s + x];
       }
+    }
   }
   function blurBoxes(v, w, h, sigma, tmp) {
     let wl = Math.floor(Math.sqrt(4 * sigma * sigma + 1)); // odd widths wl and wl + 2 (Wells, 1986)
@@ -355,74 +367,169 @@
     }
   }
 
-  // Keeps, for each pixel the render may change (the server's weight map above 0), what the rule
-  // needs: I, the weight w, its face, and on the faces' skin (the server's skin
-  // map: the meshes outside the eyes, mouth and brows) N and the source shading s(N, l_face); the
-  // rest (those regions, the forehead beyond the mesh up to the hairline, the fade into the hair)
-  // takes log r filled from the skin's over a window around the faces. Each pixel belongs to the
-  // last face whose landmarks' extent, grown by an eye distance, holds it.
-  function prepareMaps(photo, normal, weight, skin, faces) {
+  // Keeps, for each pixel the render may change (the server's weight map above 0: the render's
+  // final weight, over the whole heads), what the rule needs: I, the weight w, and on the faces'
+  // skin (the server's skin map: the meshes outside the eyes, mouth and brows) N and the source
+  // shading s(N, l_face) of its face, the last whose landmarks' extent, grown by an eye distance,
+  // holds it; the rest (those regions, the forehead beyond the mesh, the heads) takes log r filled
+  // from the skin's over a window around the faces and their heads. Then each face's head
+  // (prepareHead), in the order the render takes them.
+  function prepareMaps(photo, normal, weight, skin, head, faces) {
     const W = photo.width, H = photo.height, n = W * H;
     const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
       const xs = f.landmarks.map((q) => q[0]), ys = f.landmarks.map((q) => q[1]), e = Math.ceil(eyeDistance(f)) + 2;
       const x0 = Math.max(0, Math.floor(Math.min(...xs)) - e), x1 = Math.min(W, Math.ceil(Math.max(...xs)) + e);
       const y0 = Math.max(0, Math.floor(Math.min(...ys)) - e), y1 = Math.min(H, Math.ceil(Math.max(...ys)) + e);
-      for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) if (weight.data[4 * (y * W + x)] > 0) owner[y * W + x] = k;
+      for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) owner[y * W + x] = k;
     });
     let count = 0, bx0 = W, by0 = H, bx1 = 0, by1 = 0;
     for (let p = 0; p < n; p++)
-      if (owner[p] >= 0) {
+      if (weight.data[4 * p] > 0) {
         count++;
         const x = p % W, y = (p - x) / W;
         bx0 = Math.min(bx0, x), bx1 = Math.max(bx1, x + 1), by0 = Math.min(by0, y), by1 = Math.max(by1, y + 1);
       }
-    // the fill window: the changed pixels' extent, its corner on a multiple of 64 pixels as the
-    // render's pyramid over the whole photo has its cells
+    const heads = faces.filter((f) => f.head && count);
+    for (const f of heads) { // the face field is read over the heads' windows too
+      const [x0, y0, w, h] = f.head.window;
+      bx0 = Math.min(bx0, x0), bx1 = Math.max(bx1, x0 + w), by0 = Math.min(by0, y0), by1 = Math.max(by1, y0 + h);
+    }
+    // the fill window: the changed pixels' and the heads' extent, its corner on a multiple of 64
+    // pixels as the render's pyramid over the whole photo has its cells
     const wx0 = bx0 & ~63, wy0 = by0 & ~63, wx1 = Math.min(W, (bx1 + 63) & ~63), wy1 = Math.min(H, (by1 + 63) & ~63);
     const ww = Math.max(1, wx1 - wx0), wh = Math.max(1, wy1 - wy0);
     const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
+      level: new Uint8Array(count), top: new Float32Array(count), wLum: new Float32Array(count), goal: 0,
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
       face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count),
       faces: faces.length, fill: count ? pyramid(ww, wh) : null, known: new Float32Array(count ? ww * wh : 0),
       blurTmp: new Float32Array(count ? ww * wh : 0),
-      sigma: RATIO_BLUR / EYE_DISTANCE_UV * Math.min(...faces.map(eyeDistance)) };
+      sigma: RATIO_BLUR / EYE_DISTANCE_UV * Math.min(...faces.map(eyeDistance)),
+      heads: heads.map((f) => prepareHead(f, head, W, wx0, wy0, ww)) };
+    const headOf = new Int16Array(count ? n : 0).fill(-1); // the last head whose window holds the pixel
+    m.heads.forEach((hd, k) => {
+      for (let y = hd.y0; y < hd.y0 + hd.h; y++) headOf.fill(k, y * W + hd.x0, y * W + hd.x0 + hd.w);
+    });
     const sum = new Float64Array(faces.length), num = new Float64Array(faces.length);
     let j = 0;
     for (let p = 0; p < n; p++) {
-      const k = owner[p];
-      if (k < 0) continue;
-      const px = p % W, py = (p - px) / W;
+      if (!(weight.data[4 * p] > 0)) continue;
+      const k = owner[p], px = p % W, py = (p - px) / W;
       m.px[j] = p;
       m.cell[j] = (py - wy0) * ww + (px - wx0);
       for (let c = 0; c < 3; c++) m.rgb[3 * j + c] = photo.data[4 * p + c] / 255;
-      m.w[j] = weight.data[4 * p] / 255;
+      m.level[j] = weight.data[4 * p];
+      m.w[j] = m.level[j] / 255;
+      m.top[j] = Math.max(m.rgb[3 * j], m.rgb[3 * j + 1], m.rgb[3 * j + 2]);
+      m.wLum[j] = m.w[j] * (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
+      m.goal += m.wLum[j];
       m.face[j] = k;
-      if (skin.data[4 * p] > 0) {
-        let x = normal.data[4 * p] / 127.5 - 1, y = normal.data[4 * p + 1] / 127.5 - 1, z = normal.data[4 * p + 2] / 127.5 - 1;
-        const len = Math.hypot(x, y, z) || 1;
-        x /= len, y /= len, z /= len;
+      if (k >= 0 && skin.data[4 * p] > 0) {
+        const [x, y, z] = unitNormal(normal.data, 4 * p);
         m.skin[j] = 1;
         m.known[m.cell[j]] = 1;
         m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
         m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
         sum[k] += m.src[j], num[k]++;
       }
+      if (headOf[p] >= 0) {
+        const hd = m.heads[headOf[p]];
+        hd.ownPixel.push(j), hd.ownIndex.push((py - hd.y0) * hd.w + (px - hd.x0));
+      }
       j++;
     }
     for (let i = 0; i < count; i++) {
       const k = m.face[i];
-      m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
+      if (k >= 0) m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
     }
+    for (const hd of m.heads) hd.ownPixel = Int32Array.from(hd.ownPixel), hd.ownIndex = Int32Array.from(hd.ownIndex);
     return m;
+  }
+
+  // The unit normal an 8-bit normal map holds at byte offset o ((n + 1) / 2).
+  function unitNormal(data, o) {
+    const x = data[o] / 127.5 - 1, y = data[o + 1] / 127.5 - 1, z = data[o + 2] / 127.5 - 1, len = Math.hypot(x, y, z) || 1;
+    return [x / len, y / len, z / len];
+  }
+
+  // Face f's head (src/apply/head.c, hd_head; the server's head_* maps over its window x0, y0, w, h):
+  // the blended normals and the proxy's with their shading under the face's own light, how much of
+  // the face's own field holds (mesh; known where it is 1), the skin's and the hair's weights and
+  // how near the skin, each window pixel's cell in the face field's window, the planes a frame
+  // works in, and the changed pixels whose rule this head gives (the maps hold the last face's head
+  // where windows overlap).
+  function prepareHead(f, head, W, wx0, wy0, ww) {
+    const [x0, y0, w, h] = f.head.window, N = w * h;
+    const hd = { x0, y0, w, h, N, g: f.head.guard, sigma: f.head.blur,
+      nrm: new Float32Array(3 * N), prx: new Float32Array(3 * N), srcN: new Float32Array(N), srcP: new Float32Array(N),
+      mesh: new Float32Array(N), known: new Float32Array(N), ws: new Float32Array(N), wh: new Float32Array(N),
+      near: new Float32Array(N), cell: new Int32Array(N), skinLr: new Float32Array(N), hairLr: new Float32Array(N),
+      tmp: new Float32Array(N), fill: pyramid(w, h), ownPixel: [], ownIndex: [] };
+    for (let y = 0; y < h; y++)
+      for (let x = 0; x < w; x++) {
+        const i = y * w + x, o = 4 * ((y + y0) * W + x + x0);
+        const a = unitNormal(head.normal.data, o), b = unitNormal(head.proxy.data, o);
+        hd.nrm.set(a, 3 * i), hd.prx.set(b, 3 * i);
+        hd.srcN[i] = Math.max(shade(f.light, a[0], a[1], a[2]), 0);
+        hd.srcP[i] = Math.max(shade(f.light, b[0], b[1], b[2]), 0);
+        hd.mesh[i] = head.mesh.data[o] / 255;
+        hd.known[i] = head.mesh.data[o] === 255 ? 1 : 0;
+        hd.ws[i] = head.weights.data[o] / 255, hd.wh[i] = head.weights.data[o + 1] / 255;
+        hd.near[i] = head.weights.data[o + 2] / 255;
+        hd.cell[i] = (y + y0 - wy0) * ww + (x + x0 - wx0);
+      }
+    return hd;
+  }
+
+  // log((max(s(n, l), 0) + g) / (s_source + g)) over a head's window, n its normals (3 a pixel).
+  function headLogRatio(l, nrm, src, g, out) {
+    for (let i = 0; i < out.length; i++) {
+      const t = Math.max(shade(l, nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]), 0);
+      out[i] = t === src[i] ? 0 : Math.log((t + g) / (src[i] + g));
+    }
+  }
+
+  // hd_head_apply for one head: the face field F (the fill window's cells) handed over, beyond the
+  // mesh, to the ratio on the blended normals on the skin and on the proxy's on the hair, both
+  // blurred and kept within the face field's range over the mesh; the result into L, for the
+  // changed pixels the head gives the rule of, where its weights are above 0.
+  function relightHead(hd, l, F, L) {
+    const { N, cell, known, mesh, ws, wh, near, skinLr: s, hairLr: a } = hd;
+    headLogRatio(l, hd.nrm, hd.srcN, hd.g, s);
+    headLogRatio(l, hd.prx, hd.srcP, hd.g, a);
+    blur(s, hd.w, hd.h, hd.sigma, hd.tmp, HEAD_BOXES_PAST);
+    blur(a, hd.w, hd.h, hd.sigma, hd.tmp, HEAD_BOXES_PAST);
+    let lo = Infinity, hi = -Infinity;
+    for (let i = 0; i < N; i++)
+      if (known[i]) {
+        const v = F[cell[i]];
+        if (v < lo) lo = v;
+        if (v > hi) hi = v;
+      }
+    if (!(lo <= hi)) lo = hi = 0;
+    const off = hd.fill[0];
+    for (let i = 0; i < N; i++) {
+      s[i] = Math.min(hi, Math.max(lo, s[i]));
+      a[i] = Math.min(hi, Math.max(lo, a[i]));
+      off.v[i] = known[i] ? F[cell[i]] - s[i] : 0; // the face's field minus the head's on the mesh, carried past it
+      off.wt[i] = known[i];
+    }
+    fillLevel(hd.fill, 0);
+    for (let k = 0; k < hd.ownPixel.length; k++) {
+      const i = hd.ownIndex[k], sum = ws[i] + wh[i];
+      if (!(sum > 0)) continue;
+      const ls = s[i] + mesh[i] * off.v[i], hl = near[i] * ls + (1 - near[i]) * a[i];
+      L[hd.ownPixel[k]] = Math.min(hi, Math.max(lo, (ws[i] * ls + wh[i] * hl) / sum));
+    }
   }
 
   // The rule of docs/usage.md per pixel: out = I * exp(w * (log r + t)),
   // r = (max(s(N, l), 0) + g) / (s(N, l_face) + g) on the skin, filled from the skin's over the
-  // regions and beyond the meshes (push-pull, as the render), t the one offset that keeps the
-  // w-weighted mean luminance (--keep-brightness), the factor lowered for a pixel where a channel
-  // would pass 1.
+  // regions and beyond the meshes (push-pull, as the render), then over each head as the render
+  // (relightHead), t the one offset that keeps the w-weighted mean luminance (--keep-brightness),
+  // the factor lowered for a pixel where a channel would pass 1.
   function relightInPage() {
     const m = state.maps, l = currentLight(), d = m.out.data;
     const L = new Float32Array(m.n);
@@ -439,31 +546,32 @@
       fillLevel(m.fill, 0);
       blur(f.v, f.w, f.h, m.sigma, m.blurTmp);
       for (let j = 0; j < m.n; j++) L[j] = f.v[m.cell[j]];
+      for (const hd of m.heads) relightHead(hd, l, f.v, L);
     }
-    const lum = new Float32Array(m.n);
-    let goal = 0;
-    for (let j = 0; j < m.n; j++) {
-      lum[j] = 0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2];
-      goal += m.w[j] * lum[j];
-    }
+    // exp(w (L + t)) = exp(w L) exp(w t), and w is one of 256 levels: exp(w t) is a table
+    const e = new Float32Array(m.n), E = new Float64Array(256), table = (t) => {
+      for (let q = 0; q < 256; q++) E[q] = Math.exp(q / 255 * t);
+    };
+    for (let j = 0; j < m.n; j++) e[j] = Math.exp(m.w[j] * L[j]);
     let t = 0;
-    if (ui.keep.checked && goal > 0)
+    if (ui.keep.checked && m.goal > 0)
       for (let it = 0; it < 6; it++) { // Newton on sum w lum exp(w (L + t)) = goal
         let f = 0, df = 0;
+        table(t);
         for (let j = 0; j < m.n; j++) {
-          const v = m.w[j] * lum[j] * Math.exp(m.w[j] * (L[j] + t));
+          const v = m.wLum[j] * e[j] * E[m.level[j]];
           f += v;
           df += m.w[j] * v;
         }
         if (!(df > 0)) break;
-        t -= (f - goal) / df;
+        t -= (f - m.goal) / df;
       }
+    table(t);
     for (let j = 0; j < m.n; j++) {
-      const p = 4 * m.px[j], I = m.rgb.subarray(3 * j, 3 * j + 3);
-      let k = Math.exp(m.w[j] * (L[j] + t));
-      const top = Math.max(I[0], I[1], I[2]);
+      const p = 4 * m.px[j], r = m.rgb[3 * j], g = m.rgb[3 * j + 1], b = m.rgb[3 * j + 2], top = m.top[j];
+      let k = e[j] * E[m.level[j]];
       if (top > 0 && k * top > 1) k = 1 / top;
-      for (let c = 0; c < 3; c++) d[p + c] = 255 * k * I[c] + 0.5;
+      d[p] = 255 * k * r + 0.5, d[p + 1] = 255 * k * g + 0.5, d[p + 2] = 255 * k * b + 0.5;
     }
     photoCtx.putImageData(m.out, 0, 0);
     state.previews++;
@@ -529,10 +637,10 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, weight, skin] = await Promise.all(['photo', 'normal', 'weight', 'skin']
-        .map((k) => mapPixels(j.maps[k])));
+      const [photo, normal, weight, skin, hn, hp, hw, hm] = await Promise.all(['photo', 'normal', 'weight', 'skin',
+        'head_normal', 'head_proxy', 'head_weights', 'head_mesh'].map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, weight, skin, j.faces);
+      state.maps = prepareMaps(photo, normal, weight, skin, { normal: hn, proxy: hp, weights: hw, mesh: hm }, j.faces);
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
