@@ -3,7 +3,7 @@
 
 Usage: python3 tests/fuzz/make_seeds.py HDNET OUTDIR
   HDNET   the built hdnet tool (it makes a tiny synthetic set, a model, an alignment)
-  OUTDIR  gets one folder per target: png jpeg pfm light safetensors model obj warp tfjs serve
+  OUTDIR  gets one folder per target: png jpeg pfm light safetensors model obj warp tfjs serve lights_csv
 
 Seeds: the synthetic set's PNGs (8 and 16 bit, RGB and gray), PFM shading and light files at
 32 x 32; a width-4 model from `hdnet init`; the canonical face mesh (whole and cut); a warp file
@@ -25,7 +25,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HDNET, OUT = sys.argv[1], sys.argv[2]
-TARGETS = ["png", "jpeg", "pfm", "light", "safetensors", "model", "obj", "warp", "tfjs", "serve"]
+TARGETS = ["png", "jpeg", "pfm", "light", "safetensors", "model", "obj", "warp", "tfjs", "serve", "lights_csv"]
 
 
 def put(target, name, data):
@@ -161,6 +161,10 @@ def main():
         group["paths"] = ["g.bin"]
     put("tfjs", "blazeface_no_shard", tfjs_input(face, b""))
     serve_seeds()
+    header = b"file,subject,azimuth_deg,elevation_deg\n"
+    put("lights_csv", "yale.csv", header + b"yaleB01/yaleB01_P00A+000E+00.png,yaleB01,0,0\r\n"
+        b"yaleB01/yaleB01_P00A-035E+40.png,yaleB01,-35,40\n\nb/b.png, b ,+130,-90\n")
+    put("lights_csv", "bad.csv", header + b"../x.png,a,1e999,0\nx,,0\n")
     counts = {t: len(os.listdir(os.path.join(OUT, t))) for t in TARGETS}
     print("seeds: " + ", ".join("%s %d" % (t, n) for t, n in counts.items()))
 

@@ -11,7 +11,7 @@ build=$1 hdnet=$2 seconds=$3
 shift 3
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
-targets=${*:-png jpeg pfm light safetensors model obj warp tfjs serve}
+targets=${*:-png jpeg pfm light safetensors model obj warp tfjs serve lights_csv}
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 mkdir -p "$build/fuzz" "$build/findings"
