@@ -128,15 +128,24 @@ static int emit_json(const json_out *j, char *text, hd_status written)
     return rc;
 }
 
+/* The model (model_path, NULL: the shipped one) and the aligner the photo evaluations run; 0 when
+ * both loaded, else the exit code (the reason reported). */
+static int load_model_aligner(const char *model_path, hd_model **model, hd_aligner **aligner)
+{
+    *model = NULL, *aligner = NULL;
+    if (hd_model_load(model_path, model) == HD_OK && hd_aligner_load(aligner) == HD_OK) return 0;
+    hd_model_free(*model);
+    *model = NULL;
+    return cli_report("eval");
+}
+
 static int photo_eval(const char *data, const char *model_path, const hd_photo_rule *how, const char *heldout,
                       int limit, const json_out *json)
 {
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
-    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
-        hd_model_free(model);
-        return cli_report("eval");
-    }
+    int code = load_model_aligner(model_path, &model, &aligner);
+    if (code) return code;
     hd_photo_eval ev;
     hd_status st = hd_photo_eval_run(data, model, aligner, how, heldout, limit, &ev, warn);
     hd_model_free(model);
@@ -204,10 +213,8 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
 {
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
-    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK) {
-        hd_model_free(model);
-        return cli_report("eval");
-    }
+    int code = load_model_aligner(model_path, &model, &aligner);
+    if (code) return code;
     hd_ml_report r;
     cli_progress_start(&ml_bar, "eval --multilight: steps", 0);
     hd_status st = hd_ml_run(data, model, aligner, o, &r, warn, json->quiet ? NULL : ml_progress);

@@ -330,9 +330,16 @@ static hd_status group_subjects(run *R)
     return HD_OK;
 }
 
+/* A picture's grey (the mean of its 3 channels). */
+static void grey_of(const hd_image *rgb, float *out)
+{
+    const size_t P = (size_t)rgb->width * rgb->height;
+    for (size_t p = 0; p < P; p++)
+        out[p] = (rgb->data[p] + rgb->data[P + p] + rgb->data[2 * P + p]) / 3.0f;
+}
+
 /* Row i's photo as the model takes it (3 channels; a grey photo's value in each) into rgb (may be
  * NULL), and as grey (the mean of its channels, as the relit pictures are scored) into grey. */
-static void grey_of(const hd_image *rgb, float *out);
 static hd_status load(const run *R, int i, hd_image *grey, hd_image *rgb)
 {
     char *path = hd_path_join(R->set->dir, R->set->rows[i].file);
@@ -410,13 +417,6 @@ static hd_status estimate_lights(run *R, void (*progress)(int done, int total, c
     return st;
 }
 
-/* A picture's grey (the mean of its 3 channels). */
-static void grey_of(const hd_image *rgb, float *out)
-{
-    const size_t P = (size_t)rgb->width * rgb->height;
-    for (size_t p = 0; p < P; p++)
-        out[p] = (rgb->data[p] + rgb->data[P + p] + rgb->data[2 * P + p]) / 3.0f;
-}
 
 typedef struct sheet_row {
     hd_image truth, relit, transfer, ps;
@@ -616,14 +616,7 @@ static hd_status score_subject(run *R, int s, int *scored)
         if (st == HD_OK && sheet) {
             st = hd_image_convert(&truths[j], 1, &sheet[j].truth);
             if (st == HD_OK) st = hd_image_alloc(&sheet[j].ps, frontal.width, frontal.height, 1);
-            if (st == HD_OK) {
-                for (size_t p = 0; p < P; p++) {
-                    float b[3];
-                    const float v = truths[j].data[p];
-                    sheet[j].ps.data[p] =
-                        hd_ps_solve(&ps, p, in_ps[j] ? &v : NULL, l, b) ? fminf(1.0f, fmaxf(0.0f, b[0] * l[0] + b[1] * l[1] + b[2] * l[2])) : 0.0f;
-                }
-            }
+            for (size_t p = 0; st == HD_OK && p < P; p++) sheet[j].ps.data[p] = fminf(1.0f, pred[p]); /* the bound as shown */
         }
     }
     if (st == HD_OK && found) st = model_rows(R, s, &frontal, mask, truths, sheet);
