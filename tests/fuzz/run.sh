@@ -30,8 +30,8 @@ for t in $targets; do
     model) src=fuzz_safetensors.c defs=-DFUZZ_MODEL ;;
     *) src=fuzz_$t.c defs= ;;
     esac
-    extra= # the serve harness links the two files of tools/serve/ it tests
-    [ "$t" = serve ] && extra="$root/tools/serve/image_memory.c $root/tools/serve/lights.c"
+    extra= # the serve harness links the files of tools/ it tests
+    [ "$t" = serve ] && extra="$root/tools/serve/image_memory.c $root/tools/serve/lights.c $root/tools/light_words.c"
     bin=$build/fuzz/fuzz_$t
     # shellcheck disable=SC2086
     clang $cflags $defs -o "$bin" "$here/$src" $extra "$build/libhdnet.a" $libs || { failed=1; continue; }
