@@ -415,7 +415,7 @@ typedef struct hd_apply_request {
     hd_source_light source;     /* the face's own light (ratio rule) */
     float guard;                /* g as a share of the mean source shading; <= 0: HD_RATIO_GUARD */
     const char *operation;      /* what the caller asked for, naming it in error reasons ("delight",
-                                   "transfer"); NULL: "relight" */
+                                   "transfer", "eval"); NULL: "relight" */
 } hd_apply_request;
 
 /* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies
@@ -478,7 +478,8 @@ hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const h
 hd_status hd_face_mask_read(const char *image_path, const char *fallback, int width, int height,
                             hd_image *mask, char **source);
 
-/* Photos and aligned textures (src/apply/photo.c, docs/usage.md). The commands take a photograph
+/* Photos and aligned textures (src/apply/photo.c; the calls on a whole photo: calls.c;
+ * docs/usage.md). The commands take a photograph
  * by default and an aligned texture with --aligned, or when the file has an aligned companion
  * (NAME.mask.png or NAME.normal.png) beside it. */
 typedef enum hd_input_kind { HD_INPUT_PHOTO = 0, HD_INPUT_TEXTURE } hd_input_kind;

@@ -153,7 +153,7 @@ static hd_status score_pair(hd_model *model, const side *a, const side *b, const
     const size_t P = (size_t)a->input.width * a->input.height;
     hd_light_rgb target;
     hd_light_rgb_from_grey(b->light, &target);
-    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_LNET, how->guard, NULL};
+    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_LNET, how->guard, "eval"};
     hd_apply_result r;
     if (st == HD_OK) add_errors(&rows[HD_PAIR_INPUT], &a->input, &b->input, m.data);
     /* exact decomposition: A_i s(N_i, l_j) */
