@@ -349,6 +349,138 @@ hd_status hd_eye_white_balance(const hd_image *texture, float tint[3]);
 hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count, hd_decomposition *out);
 void hd_decomposition_free(hd_decomposition *d);
 
+/* ---------------------------------------------------------------- photo alignment (src/align) */
+
+/* From a photograph to the aligned texture space of SPEC section 2 and back (docs/alignment.md).
+ *
+ * Frames. Photo coordinates are continuous pixels: x right, y down, pixel (i, j) covers
+ * [i, i+1) x [j, j+1), so its centre is (i + 0.5, j + 0.5). Landmarks are the 468 vertices of the
+ * canonical mesh as found in the photo: (x, y) in photo coordinates and a depth z in the same
+ * units as x; which way z points is found by the fit (see depth_sign). Texture coordinates are
+ * the canonical mesh's UVs (u right, v down) scaled to the texture side S, texel (x, y) centred
+ * at ((x + 0.5) / S, (y + 0.5) / S). Normals are in the camera frame (x right, y up, z toward the
+ * viewer). */
+
+#define HD_FACE_LANDMARKS 468
+
+typedef struct hd_aligned_face {
+    int size;          /* texture side S */
+    hd_image texture;  /* 3 x S x S: the photo unwarped (0 outside the mesh's UV layout) */
+    hd_image mask;     /* 1 x S x S: 1 where the texel is inside the mesh, on a triangle facing
+                        * the camera, not hidden by another part of the face, its normal has
+                        * z > 0 and it falls inside the photo; else 0 */
+    hd_image normal;   /* 3 x S x S: coarse normals, unit, camera frame; 0 where mask is 0 */
+    float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
+    int photo_width, photo_height;         /* the photo the face was found in */
+    float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
+    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates (the landmarks'
+                        * bounding box when the landmarks were given) */
+    /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
+     * taken to the camera frame as c = (x, -y, depth_sign * z):
+     *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */
+    float scale, rotation[9], translation[3];
+    float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
+    float fit_rms;     /* root-mean-square residual of the fit, in pixels */
+} hd_aligned_face;
+
+/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
+ * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
+ * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
+ * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
+ * landmarks. The face owns its images: free with hd_aligned_face_free. */
+hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
+                        hd_aligned_face *face);
+/* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
+ * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
+ * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
+hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* The same for many photos: the detector and landmark models (shipped, found with the data search
+ * path) are loaded once (about 0.5 s) and reused. Thread-safe: one aligner serves any number of
+ * threads at once; a run that finds every loaded copy of the two models busy in other threads loads
+ * another (0.5 s, about 3 MB), which stays for later runs. */
+typedef struct hd_aligner hd_aligner;
+hd_status hd_aligner_load(hd_aligner **aligner);
+void hd_aligner_free(hd_aligner *aligner);
+/* The face detection threshold hd_aligner_run uses from now on, in (0, 1] (default 0.75, the
+ * detector's own; out of range: left as it was). */
+void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
+hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
+ * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
+ * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
+ * over the whole photo, which finds faces from about 7 % of its longer side up). */
+#define HD_DETECT_MIN_SCORE 0.75f
+#define HD_DETECT_MIN_FACE 40.0f
+hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
+void hd_aligned_face_free(hd_aligned_face *face);
+void hd_aligned_faces_free(hd_aligned_face *faces, int count);
+
+/* Writes dir/<stem>.png (texture, 8 bit), <stem>.mask.png (8 bit), <stem>.normal.png (16 bit,
+ * SPEC section 2 encoding), <stem>.landmarks.txt (468 lines "x y z") and <stem>.warp.txt (every
+ * field of the face but the images: what hd_warp_back needs). Each file is written atomically. */
+hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem);
+/* Reads a .warp.txt file into `face` (images left empty: size, landmarks, photo size, fit).
+ * Errors name the file and the line. */
+hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
+
+/* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
+ * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
+ * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
+ * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask, of any size, is
+ * read at the texel's UV; NULL: face->mask, or if that is empty the texels inside the mesh's UV
+ * layout). *warped gets the texture's channels, *coverage 1 channel: 1 where the pixel received a
+ * face value, else 0 (and warped 0). */
+hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
+                       hd_image *warped, hd_image *coverage);
+
+/* What the Poisson solver did, per channel (up to 4). */
+typedef struct hd_poisson_report {
+    int unknowns;            /* pixels solved for */
+    int channels;
+    int iterations[4];       /* conjugate-gradient iterations */
+    double residual[4];      /* final relative residual |b - A f| / |b| */
+    double tolerance;        /* the tolerance asked for */
+    double seconds;
+} hd_poisson_report;
+
+#define HD_POISSON_TOLERANCE 1e-4
+
+/* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
+ * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
+ * lie strictly inside both the source and the target (their 4 neighbours exist in both; the
+ * others count as boundary), solves  Laplacian(f) = Laplacian(source)  with f = target on
+ * the region's boundary (5-point stencil, source differences as the guidance field), in place in
+ * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
+ * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
+ * HD_ERR_NUMERIC if the solver cannot reach the tolerance. report may be NULL. */
+hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
+                           double tolerance, hd_image *target, hd_poisson_report *report);
+
+/* What hd_warp_back_blend puts into the photo. */
+typedef enum hd_warp_mode {
+    HD_WARP_REPLACE, /* the texture itself: the face is redrawn at the texture's resolution */
+    HD_WARP_CHANGE   /* the photo plus the change the texture makes, texture - face->texture (the
+                      * latter resampled to the texture's size): the photo's own detail is kept at
+                      * full resolution, so a face larger than the texture stays sharp */
+} hd_warp_mode;
+
+/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
+ * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo
+ * the face came from, same size and channels as the texture) as `mode` says, and blends it in
+ * with hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by
+ * one pixel, so that outside the face the photo is untouched and no seam shows. report may be
+ * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
+                             double tolerance, hd_image *photo, hd_poisson_report *report);
+/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
+ * their first call; each file found by the data search path is read once) and then share it,
+ * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
+ * (hd_aligner_run aligns on it) and these warp back on it. */
+hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
+hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
+
 /* ---------------------------------------------------------------- relighting (src/apply) */
 
 /* The paper's relighting (docs/usage.md). The final albedo is the input over the predicted
@@ -441,7 +573,6 @@ typedef struct hd_apply_result {
     struct hd_aligned_face *faces;         /* a photo's nfaces faces as aligned; NULL for a texture */
 } hd_apply_result;
 
-typedef struct hd_aligner hd_aligner;
 /* A photo (3 channels): every face aligned, decomposed once, changed as asked. No face:
  * HD_ERR_NOTFOUND and nothing allocated. */
 hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *request,
@@ -488,8 +619,6 @@ hd_input_kind hd_input_kind_of(const char *path);
 /* Faces of a photo are unwarped at max(HD_PHOTO_TEXTURE_SIZE, model size) texels a side, so the
  * relit texture keeps more detail than the model's own size. */
 #define HD_PHOTO_TEXTURE_SIZE 256
-struct hd_aligned_face;
-typedef struct hd_aligner hd_aligner;
 int hd_photo_texture_size(const hd_model *model);
 /* Every face of `photo` aligned at hd_photo_texture_size (hd_aligner_run); no face at all is
  * HD_ERR_NOTFOUND ("no face found"). Free with hd_aligned_faces_free. */
@@ -803,140 +932,6 @@ hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *repo
 /* SSIM of two pictures of one size (up to 3 channels, clamped to [0, 1]) averaged over the pixels
  * with mask > 0.5 (NULL: all): 1 for equal pictures. NAN only for want of memory. */
 double hd_ssim_masked(const hd_image *a, const hd_image *b, const float *mask);
-
-
-/* ---------------------------------------------------------------- photo alignment (src/align) */
-
-/* From a photograph to the aligned texture space of SPEC section 2 and back (docs/alignment.md).
- *
- * Frames. Photo coordinates are continuous pixels: x right, y down, pixel (i, j) covers
- * [i, i+1) x [j, j+1), so its centre is (i + 0.5, j + 0.5). Landmarks are the 468 vertices of the
- * canonical mesh as found in the photo: (x, y) in photo coordinates and a depth z in the same
- * units as x; which way z points is found by the fit (see depth_sign). Texture coordinates are
- * the canonical mesh's UVs (u right, v down) scaled to the texture side S, texel (x, y) centred
- * at ((x + 0.5) / S, (y + 0.5) / S). Normals are in the camera frame (x right, y up, z toward the
- * viewer). */
-
-#define HD_FACE_LANDMARKS 468
-
-typedef struct hd_aligned_face {
-    int size;          /* texture side S */
-    hd_image texture;  /* 3 x S x S: the photo unwarped (0 outside the mesh's UV layout) */
-    hd_image mask;     /* 1 x S x S: 1 where the texel is inside the mesh, on a triangle facing
-                        * the camera, not hidden by another part of the face, its normal has
-                        * z > 0 and it falls inside the photo; else 0 */
-    hd_image normal;   /* 3 x S x S: coarse normals, unit, camera frame; 0 where mask is 0 */
-    float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
-    int photo_width, photo_height;         /* the photo the face was found in */
-    float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
-    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates (the landmarks'
-                        * bounding box when the landmarks were given) */
-    /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
-     * taken to the camera frame as c = (x, -y, depth_sign * z):
-     *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */
-    float scale, rotation[9], translation[3];
-    float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
-    float fit_rms;     /* root-mean-square residual of the fit, in pixels */
-} hd_aligned_face;
-
-/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
- * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
- * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
- * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
- * landmarks. The face owns its images: free with hd_aligned_face_free. */
-hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
-                        hd_aligned_face *face);
-/* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
- * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
- * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
-hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
-/* The same for many photos: the detector and landmark models (shipped, found with the data search
- * path) are loaded once (about 0.5 s) and reused. Thread-safe: one aligner serves any number of
- * threads at once; a run that finds every loaded copy of the two models busy in other threads loads
- * another (0.5 s, about 3 MB), which stays for later runs. */
-typedef struct hd_aligner hd_aligner;
-hd_status hd_aligner_load(hd_aligner **aligner);
-void hd_aligner_free(hd_aligner *aligner);
-/* The face detection threshold hd_aligner_run uses from now on, in (0, 1] (default 0.75, the
- * detector's own; out of range: left as it was). */
-void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
-hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
-/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
- * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
- * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
- * over the whole photo, which finds faces from about 7 % of its longer side up). */
-#define HD_DETECT_MIN_SCORE 0.75f
-#define HD_DETECT_MIN_FACE 40.0f
-hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
-void hd_aligned_face_free(hd_aligned_face *face);
-void hd_aligned_faces_free(hd_aligned_face *faces, int count);
-
-/* Writes dir/<stem>.png (texture, 8 bit), <stem>.mask.png (8 bit), <stem>.normal.png (16 bit,
- * SPEC section 2 encoding), <stem>.landmarks.txt (468 lines "x y z") and <stem>.warp.txt (every
- * field of the face but the images: what hd_warp_back needs). Each file is written atomically. */
-hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem);
-/* Reads a .warp.txt file into `face` (images left empty: size, landmarks, photo size, fit).
- * Errors name the file and the line. */
-hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
-
-/* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
- * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
- * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
- * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask, of any size, is
- * read at the texel's UV; NULL: face->mask, or if that is empty the texels inside the mesh's UV
- * layout). *warped gets the texture's channels, *coverage 1 channel: 1 where the pixel received a
- * face value, else 0 (and warped 0). */
-hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
-                       hd_image *warped, hd_image *coverage);
-
-/* What the Poisson solver did, per channel (up to 4). */
-typedef struct hd_poisson_report {
-    int unknowns;            /* pixels solved for */
-    int channels;
-    int iterations[4];       /* conjugate-gradient iterations */
-    double residual[4];      /* final relative residual |b - A f| / |b| */
-    double tolerance;        /* the tolerance asked for */
-    double seconds;
-} hd_poisson_report;
-
-#define HD_POISSON_TOLERANCE 1e-4
-
-/* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
- * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
- * lie strictly inside both the source and the target (their 4 neighbours exist in both; the
- * others count as boundary), solves  Laplacian(f) = Laplacian(source)  with f = target on
- * the region's boundary (5-point stencil, source differences as the guidance field), in place in
- * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
- * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
- * HD_ERR_NUMERIC if the solver cannot reach the tolerance. report may be NULL. */
-hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
-                           double tolerance, hd_image *target, hd_poisson_report *report);
-
-/* What hd_warp_back_blend puts into the photo. */
-typedef enum hd_warp_mode {
-    HD_WARP_REPLACE, /* the texture itself: the face is redrawn at the texture's resolution */
-    HD_WARP_CHANGE   /* the photo plus the change the texture makes, texture - face->texture (the
-                      * latter resampled to the texture's size): the photo's own detail is kept at
-                      * full resolution, so a face larger than the texture stays sharp */
-} hd_warp_mode;
-
-/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
- * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo
- * the face came from, same size and channels as the texture) as `mode` says, and blends it in
- * with hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by
- * one pixel, so that outside the face the photo is untouched and no seam shows. report may be
- * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
-                             double tolerance, hd_image *photo, hd_poisson_report *report);
-/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
- * their first call; each file found by the data search path is read once) and then share it,
- * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
- * (hd_aligner_run aligns on it) and these warp back on it. */
-hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
-hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
-
 
 #ifdef __cplusplus
 }
