@@ -757,24 +757,9 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
 
 /* ---------------------------------------------------------------- evaluation (src/eval) */
 
-/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set. Accumulate image by
- * image into hd_eval_sums, then read the row. */
+/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set (the accumulators:
+ * src/eval/metrics.h). */
 #define HD_EVAL_THRESHOLDS 3 /* normal error thresholds: 20, 25, 30 degrees */
-#define HD_EVAL_KMEANS_K 10
-#define HD_EVAL_KMEANS_SEED 20240601u
-
-typedef struct hd_eval_sums {
-    double normal_sum, normal_sum2; /* angular error, degrees */
-    long normal_n, normal_under[HD_EVAL_THRESHOLDS];
-    double albedo_abs, albedo_sq;   /* over pixels x 3 channels */
-    long albedo_n;
-    double albedo_si_abs;           /* |k A - A_gt| with each image's best scale k (same count) */
-    double recon_abs, recon_sq;
-    long recon_n;
-    double shading_abs;
-    long shading_n;
-} hd_eval_sums;
-
 typedef struct hd_eval_row {
     char name[64];
     int has_normal, has_albedo, has_recon, has_shading, has_light; /* columns this row fills */
@@ -783,28 +768,6 @@ typedef struct hd_eval_row {
     double albedo_si_mae; /* scale-invariant albedo MAE: each image's albedo times its best scale */
     double light_accuracy; /* percent */
 } hd_eval_row;
-
-/* Each adds the masked pixels of one image (planar maps of npix pixels; mask may be NULL = all).
- * Normals: angle between unit vectors, atan2(|a x b|, a . b) (exact near 0). Albedo and
- * reconstruction: |p - t| and (p - t)^2 per channel (3 channels); the reconstruction is clamped to
- * [0, 1] first, as a picture is. Shading: |p - t|. The albedo also adds the scale-invariant error
- * |k p - t|, k >= 0 the image's scale that minimises it (the weighted median of t / p, weights |p|),
- * as intrinsic-image benchmarks score an albedo whose overall brightness is free. */
-void hd_eval_add_normals(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-void hd_eval_add_albedo(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-void hd_eval_add_recon(hd_eval_sums *sums, const float *pred, const float *input, const float *mask, int npix);
-void hd_eval_add_shading(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-/* Fills the metric columns that received pixels (sets has_*); leaves name and light alone. */
-void hd_eval_row_from_sums(const hd_eval_sums *sums, hd_eval_row *row);
-
-/* k-means (k-means++ seeding from `seed`, then Lloyd's iterations until no point moves, at most
- * max_iter) of n points of dim floats. centroids (k, dim) and assign (n) are filled. Ties go to the
- * lower centroid index. k is clamped to n. */
-hd_status hd_kmeans(const float *points, int n, int dim, int k, uint64_t seed, int max_iter, float *centroids,
-                    int *assign);
-/* Lighting classification: k-means on the ground-truth lights (n, 9); each predicted light goes to
- * its nearest centroid; the percentage that lands in its ground-truth light's cluster. */
-hd_status hd_eval_light_accuracy(const float *gt, const float *pred, int n, int k, uint64_t seed, double *accuracy);
 
 /* A whole evaluation: the set's ground truth (SPEC section 5 folders with NAME.albedo.png,
  * NAME.normal_gt.png, NAME.shading.pfm or .png, NAME.light.txt, NAME.mask.png) scored against
@@ -836,31 +799,7 @@ char *hd_eval_report_json(const hd_eval_report *report);
 hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
 
 /* Relighting measured on real photos without ground truth (src/eval/photo_metrics.c, docs/usage.md
- * "Measuring relighting"). Each compares a relit photo with its input (RGB, same size) over the
- * pixels the relighting changed (`changed`, one byte a pixel, from hd_photo_changed). */
-hd_status hd_photo_changed(const hd_image *input, const hd_image *relit, unsigned char **changed, long *count);
-/* 1000 x the mean over changed pixels of sum_c |rgb_c / (r + g + b) change| (pixels whose r + g + b
- * is 0.06 or less in either picture left out): 0 when every colour is kept. */
-double hd_photo_chroma(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* The correlation of the 5-point Laplacian of log(luminance + 1/255) of relit and input over the
- * changed pixels: 1 when all detail is kept. Luminance: Rec. 709 weights of the stored values. */
-double hd_photo_detail(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* The mean relit / input luminance ratio over discs of radius 0.12 x the pupils' distance around
- * the two pupils (photo pixels, x y) over the same mean across the changed pixels (ratios where
- * the input's luminance exceeds 0.02): 1 when the eyes follow the light. */
-double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigned char *changed,
-                     const float pupils[2][2]);
-/* The mean gradient magnitude (forward differences) of the luminance change relit - input on the
- * border of the changed region (pixels with a 4-neighbour on the other side) over the same inside
- * it: about 1 or less when there is no seam. NAN only for want of memory. */
-double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* Mean absolute difference over the 3 channels of the pixels in `where` (NULL: all). */
-double hd_photo_mae(const hd_image *a, const hd_image *b, const unsigned char *where);
-/* The mean luminance of relit over that of input, over `where` (NULL: all). */
-double hd_photo_mean_lum_ratio(const hd_image *input, const hd_image *relit, const unsigned char *where);
-/* |a - b| / |a| (Euclidean norms of the 9 coefficients). */
-double hd_light_difference(const float a[HD_SH_COEFFS], const float b[HD_SH_COEFFS]);
-
+ * "Measuring relighting"; the metrics themselves: src/eval/photo_metrics.h). */
 /* A whole run over a folder of people (one subfolder each, photos inside; NAME.tem beside a photo
  * gives its pupils as points 0 and 1, else the eye contours' centres): every photo relit under the
  * seven presets (brightness kept) and under its own estimated light, by `rule`. Per photo, the
@@ -929,9 +868,6 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, const hd_photo_rule
 /* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
 char *hd_pair_report_json(const hd_pair_report *report);
 hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);
-/* SSIM of two pictures of one size (up to 3 channels, clamped to [0, 1]) averaged over the pixels
- * with mask > 0.5 (NULL: all): 1 for equal pictures. NAN only for want of memory. */
-double hd_ssim_masked(const hd_image *a, const hd_image *b, const float *mask);
 
 #ifdef __cplusplus
 }

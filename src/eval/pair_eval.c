@@ -11,6 +11,7 @@
 #include "core/core.h"
 #include "io/dataset.h"
 #include "eval/eval_json.h"
+#include "eval/photo_metrics.h"
 #include "apply/apply.h"
 
 static const char *const ROW_NAMES[HD_PAIR_ROWS] = {"input unchanged", "exact decomposition", "exact ratio (true N, l)",

@@ -12,6 +12,7 @@
 #include "io/dataset.h"
 #include "eval/eval_json.h"
 #include "eval/photo_coverage.h"
+#include "eval/photo_metrics.h"
 #include "apply/apply.h"
 #include "mesh/mesh.h"
 
