@@ -483,31 +483,13 @@ hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned
 
 /* ---------------------------------------------------------------- relighting (src/apply) */
 
-/* The paper's relighting (docs/usage.md). The final albedo is the input over the predicted
- * shading, per colour channel: A_final = clamp(I / max(S, HD_SHADING_FLOOR), 0, 1); the relit face
- * is A_final * max(s(N, l_target), 0), clamped to [0, 1]. The image may be of any size: the
- * decomposition's shading and normals (at the model size) are resized to it (normals
- * renormalised). A mask is one channel of any size (resized likewise) or NULL for all ones; the
- * output is m * relit + (1 - m) * I, so masked-out pixels keep the input. */
-#define HD_SHADING_FLOOR 1e-3f
-
+/* How bright a relit face is. */
 typedef enum hd_brightness {
     /* The relit face is scaled by one factor k >= 0 so that the mask-weighted mean over pixels and
      * channels of clamp(k * relit, 0, 1) equals that of the input (solved through the clamp). */
     HD_BRIGHTNESS_KEEP = 0,
     HD_BRIGHTNESS_FREE /* the target light's own level */
 } hd_brightness;
-
-/* A_final at the image's size (3 channels); image is 3 channels. */
-hd_status hd_relight_albedo(const hd_image *image, const hd_decomposition *d, hd_image *albedo);
-/* Relights image (decomposed as d) under light; out is allocated at the image's size. */
-hd_status hd_relight(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
-                     const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
-/* The albedo under flat light (s = 1): m * A_final + (1 - m) * I. No brightness matching. */
-hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_image *mask, hd_image *out);
-/* Relights image under the light estimated for a reference face (ref->light). */
-hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
-                      const hd_decomposition *ref, hd_brightness brightness, hd_image *out);
 
 /* ---- applying a model to a texture or a photo: the one home (src/apply/apply.c, docs/usage.md
  * "The relighting rule"). */
@@ -517,8 +499,8 @@ typedef enum hd_relight_rule {
      * them; the change fades to nothing at the face's edge (feathered), the rest is the input's bit
      * for bit. Exactly the identity when the light does not change. The default. */
     HD_RULE_RATIO = 0,
-    /* The paper's A_final = I / S times s(N, l_target) (hd_relight below), Poisson-blended into a
-     * photo: kept to measure against (hdnet eval --rule paper). */
+    /* The paper's A_final = I / S times s(N, l_target) (src/apply/relight.c), Poisson-blended into
+     * a photo: kept to measure against (hdnet eval --rule paper). */
     HD_RULE_PAPER
 } hd_relight_rule;
 

@@ -10,6 +10,7 @@
 #include "test.h"
 #include "core/core.h"
 #include "io/dataset.h"
+#include "apply/apply.h"
 
 #define SIDE 32
 
