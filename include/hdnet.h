@@ -349,33 +349,147 @@ hd_status hd_eye_white_balance(const hd_image *texture, float tint[3]);
 hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count, hd_decomposition *out);
 void hd_decomposition_free(hd_decomposition *d);
 
+/* ---------------------------------------------------------------- photo alignment (src/align) */
+
+/* From a photograph to the aligned texture space of SPEC section 2 and back (docs/alignment.md).
+ *
+ * Frames. Photo coordinates are continuous pixels: x right, y down, pixel (i, j) covers
+ * [i, i+1) x [j, j+1), so its centre is (i + 0.5, j + 0.5). Landmarks are the 468 vertices of the
+ * canonical mesh as found in the photo: (x, y) in photo coordinates and a depth z in the same
+ * units as x; which way z points is found by the fit (see depth_sign). Texture coordinates are
+ * the canonical mesh's UVs (u right, v down) scaled to the texture side S, texel (x, y) centred
+ * at ((x + 0.5) / S, (y + 0.5) / S). Normals are in the camera frame (x right, y up, z toward the
+ * viewer). */
+
+#define HD_FACE_LANDMARKS 468
+
+typedef struct hd_aligned_face {
+    int size;          /* texture side S */
+    hd_image texture;  /* 3 x S x S: the photo unwarped (0 outside the mesh's UV layout) */
+    hd_image mask;     /* 1 x S x S: 1 where the texel is inside the mesh, on a triangle facing
+                        * the camera, not hidden by another part of the face, its normal has
+                        * z > 0 and it falls inside the photo; else 0 */
+    hd_image normal;   /* 3 x S x S: coarse normals, unit, camera frame; 0 where mask is 0 */
+    float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
+    int photo_width, photo_height;         /* the photo the face was found in */
+    float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
+    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates (the landmarks'
+                        * bounding box when the landmarks were given) */
+    /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
+     * taken to the camera frame as c = (x, -y, depth_sign * z):
+     *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */
+    float scale, rotation[9], translation[3];
+    float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
+    float fit_rms;     /* root-mean-square residual of the fit, in pixels */
+} hd_aligned_face;
+
+/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
+ * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
+ * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
+ * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
+ * landmarks. The face owns its images: free with hd_aligned_face_free. */
+hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
+                        hd_aligned_face *face);
+/* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
+ * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
+ * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
+hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* The same for many photos: the detector and landmark models (shipped, found with the data search
+ * path) are loaded once (about 0.5 s) and reused. Thread-safe: one aligner serves any number of
+ * threads at once; a run that finds every loaded copy of the two models busy in other threads loads
+ * another (0.5 s, about 3 MB), which stays for later runs. */
+typedef struct hd_aligner hd_aligner;
+hd_status hd_aligner_load(hd_aligner **aligner);
+void hd_aligner_free(hd_aligner *aligner);
+/* The face detection threshold hd_aligner_run uses from now on, in (0, 1] (default 0.75, the
+ * detector's own; out of range: left as it was). */
+void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
+hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
+/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
+ * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
+ * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
+ * over the whole photo, which finds faces from about 7 % of its longer side up). */
+#define HD_DETECT_MIN_SCORE 0.75f
+#define HD_DETECT_MIN_FACE 40.0f
+hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
+void hd_aligned_face_free(hd_aligned_face *face);
+void hd_aligned_faces_free(hd_aligned_face *faces, int count);
+
+/* Writes dir/<stem>.png (texture, 8 bit), <stem>.mask.png (8 bit), <stem>.normal.png (16 bit,
+ * SPEC section 2 encoding), <stem>.landmarks.txt (468 lines "x y z") and <stem>.warp.txt (every
+ * field of the face but the images: what hd_warp_back needs). Each file is written atomically. */
+hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem);
+/* Reads a .warp.txt file into `face` (images left empty: size, landmarks, photo size, fit).
+ * Errors name the file and the line. */
+hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
+
+/* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
+ * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
+ * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
+ * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask, of any size, is
+ * read at the texel's UV; NULL: face->mask, or if that is empty the texels inside the mesh's UV
+ * layout). *warped gets the texture's channels, *coverage 1 channel: 1 where the pixel received a
+ * face value, else 0 (and warped 0). */
+hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
+                       hd_image *warped, hd_image *coverage);
+
+/* What the Poisson solver did, per channel (up to 4). */
+typedef struct hd_poisson_report {
+    int unknowns;            /* pixels solved for */
+    int channels;
+    int iterations[4];       /* conjugate-gradient iterations */
+    double residual[4];      /* final relative residual |b - A f| / |b| */
+    double tolerance;        /* the tolerance asked for */
+    double seconds;
+} hd_poisson_report;
+
+#define HD_POISSON_TOLERANCE 1e-4
+
+/* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
+ * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
+ * lie strictly inside both the source and the target (their 4 neighbours exist in both; the
+ * others count as boundary), solves  Laplacian(f) = Laplacian(source)  with f = target on
+ * the region's boundary (5-point stencil, source differences as the guidance field), in place in
+ * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
+ * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
+ * HD_ERR_NUMERIC if the solver cannot reach the tolerance. report may be NULL. */
+hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
+                           double tolerance, hd_image *target, hd_poisson_report *report);
+
+/* What hd_warp_back_blend puts into the photo. */
+typedef enum hd_warp_mode {
+    HD_WARP_REPLACE, /* the texture itself: the face is redrawn at the texture's resolution */
+    HD_WARP_CHANGE   /* the photo plus the change the texture makes, texture - face->texture (the
+                      * latter resampled to the texture's size): the photo's own detail is kept at
+                      * full resolution, so a face larger than the texture stays sharp */
+} hd_warp_mode;
+
+/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
+ * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo
+ * the face came from, same size and channels as the texture) as `mode` says, and blends it in
+ * with hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by
+ * one pixel, so that outside the face the photo is untouched and no seam shows. report may be
+ * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
+hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
+                             double tolerance, hd_image *photo, hd_poisson_report *report);
+/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
+ * their first call; each file found by the data search path is read once) and then share it,
+ * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
+ * (hd_aligner_run aligns on it) and these warp back on it. */
+hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
+hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
+                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
+
 /* ---------------------------------------------------------------- relighting (src/apply) */
 
-/* The paper's relighting (docs/usage.md). The final albedo is the input over the predicted
- * shading, per colour channel: A_final = clamp(I / max(S, HD_SHADING_FLOOR), 0, 1); the relit face
- * is A_final * max(s(N, l_target), 0), clamped to [0, 1]. The image may be of any size: the
- * decomposition's shading and normals (at the model size) are resized to it (normals
- * renormalised). A mask is one channel of any size (resized likewise) or NULL for all ones; the
- * output is m * relit + (1 - m) * I, so masked-out pixels keep the input. */
-#define HD_SHADING_FLOOR 1e-3f
-
+/* How bright a relit face is. */
 typedef enum hd_brightness {
     /* The relit face is scaled by one factor k >= 0 so that the mask-weighted mean over pixels and
      * channels of clamp(k * relit, 0, 1) equals that of the input (solved through the clamp). */
     HD_BRIGHTNESS_KEEP = 0,
     HD_BRIGHTNESS_FREE /* the target light's own level */
 } hd_brightness;
-
-/* A_final at the image's size (3 channels); image is 3 channels. */
-hd_status hd_relight_albedo(const hd_image *image, const hd_decomposition *d, hd_image *albedo);
-/* Relights image (decomposed as d) under light; out is allocated at the image's size. */
-hd_status hd_relight(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
-                     const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
-/* The albedo under flat light (s = 1): m * A_final + (1 - m) * I. No brightness matching. */
-hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_image *mask, hd_image *out);
-/* Relights image under the light estimated for a reference face (ref->light). */
-hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
-                      const hd_decomposition *ref, hd_brightness brightness, hd_image *out);
 
 /* ---- applying a model to a texture or a photo: the one home (src/apply/apply.c, docs/usage.md
  * "The relighting rule"). */
@@ -385,8 +499,8 @@ typedef enum hd_relight_rule {
      * them; the change fades to nothing at the face's edge (feathered), the rest is the input's bit
      * for bit. Exactly the identity when the light does not change. The default. */
     HD_RULE_RATIO = 0,
-    /* The paper's A_final = I / S times s(N, l_target) (hd_relight below), Poisson-blended into a
-     * photo: kept to measure against (hdnet eval --rule paper). */
+    /* The paper's A_final = I / S times s(N, l_target) (src/apply/relight.c), Poisson-blended into
+     * a photo: kept to measure against (hdnet eval --rule paper). */
     HD_RULE_PAPER
 } hd_relight_rule;
 
@@ -415,7 +529,7 @@ typedef struct hd_apply_request {
     hd_source_light source;     /* the face's own light (ratio rule) */
     float guard;                /* g as a share of the mean source shading; <= 0: HD_RATIO_GUARD */
     const char *operation;      /* what the caller asked for, naming it in error reasons ("delight",
-                                   "transfer"); NULL: "relight" */
+                                   "transfer", "eval"); NULL: "relight" */
 } hd_apply_request;
 
 /* The face's own light of a decomposition, as the ratio rule uses it: HD_SOURCE_LNET copies
@@ -441,7 +555,6 @@ typedef struct hd_apply_result {
     struct hd_aligned_face *faces;         /* a photo's nfaces faces as aligned; NULL for a texture */
 } hd_apply_result;
 
-typedef struct hd_aligner hd_aligner;
 /* A photo (3 channels): every face aligned, decomposed once, changed as asked. No face:
  * HD_ERR_NOTFOUND and nothing allocated. */
 hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *request,
@@ -478,7 +591,8 @@ hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const h
 hd_status hd_face_mask_read(const char *image_path, const char *fallback, int width, int height,
                             hd_image *mask, char **source);
 
-/* Photos and aligned textures (src/apply/photo.c, docs/usage.md). The commands take a photograph
+/* Photos and aligned textures (src/apply/photo.c; the calls on a whole photo: calls.c;
+ * docs/usage.md). The commands take a photograph
  * by default and an aligned texture with --aligned, or when the file has an aligned companion
  * (NAME.mask.png or NAME.normal.png) beside it. */
 typedef enum hd_input_kind { HD_INPUT_PHOTO = 0, HD_INPUT_TEXTURE } hd_input_kind;
@@ -487,8 +601,6 @@ hd_input_kind hd_input_kind_of(const char *path);
 /* Faces of a photo are unwarped at max(HD_PHOTO_TEXTURE_SIZE, model size) texels a side, so the
  * relit texture keeps more detail than the model's own size. */
 #define HD_PHOTO_TEXTURE_SIZE 256
-struct hd_aligned_face;
-typedef struct hd_aligner hd_aligner;
 int hd_photo_texture_size(const hd_model *model);
 /* Every face of `photo` aligned at hd_photo_texture_size (hd_aligner_run); no face at all is
  * HD_ERR_NOTFOUND ("no face found"). Free with hd_aligned_faces_free. */
@@ -627,24 +739,9 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
 
 /* ---------------------------------------------------------------- evaluation (src/eval) */
 
-/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set. Accumulate image by
- * image into hd_eval_sums, then read the row. */
+/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set (the accumulators:
+ * src/eval/metrics.h). */
 #define HD_EVAL_THRESHOLDS 3 /* normal error thresholds: 20, 25, 30 degrees */
-#define HD_EVAL_KMEANS_K 10
-#define HD_EVAL_KMEANS_SEED 20240601u
-
-typedef struct hd_eval_sums {
-    double normal_sum, normal_sum2; /* angular error, degrees */
-    long normal_n, normal_under[HD_EVAL_THRESHOLDS];
-    double albedo_abs, albedo_sq;   /* over pixels x 3 channels */
-    long albedo_n;
-    double albedo_si_abs;           /* |k A - A_gt| with each image's best scale k (same count) */
-    double recon_abs, recon_sq;
-    long recon_n;
-    double shading_abs;
-    long shading_n;
-} hd_eval_sums;
-
 typedef struct hd_eval_row {
     char name[64];
     int has_normal, has_albedo, has_recon, has_shading, has_light; /* columns this row fills */
@@ -653,28 +750,6 @@ typedef struct hd_eval_row {
     double albedo_si_mae; /* scale-invariant albedo MAE: each image's albedo times its best scale */
     double light_accuracy; /* percent */
 } hd_eval_row;
-
-/* Each adds the masked pixels of one image (planar maps of npix pixels; mask may be NULL = all).
- * Normals: angle between unit vectors, atan2(|a x b|, a . b) (exact near 0). Albedo and
- * reconstruction: |p - t| and (p - t)^2 per channel (3 channels); the reconstruction is clamped to
- * [0, 1] first, as a picture is. Shading: |p - t|. The albedo also adds the scale-invariant error
- * |k p - t|, k >= 0 the image's scale that minimises it (the weighted median of t / p, weights |p|),
- * as intrinsic-image benchmarks score an albedo whose overall brightness is free. */
-void hd_eval_add_normals(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-void hd_eval_add_albedo(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-void hd_eval_add_recon(hd_eval_sums *sums, const float *pred, const float *input, const float *mask, int npix);
-void hd_eval_add_shading(hd_eval_sums *sums, const float *pred, const float *gt, const float *mask, int npix);
-/* Fills the metric columns that received pixels (sets has_*); leaves name and light alone. */
-void hd_eval_row_from_sums(const hd_eval_sums *sums, hd_eval_row *row);
-
-/* k-means (k-means++ seeding from `seed`, then Lloyd's iterations until no point moves, at most
- * max_iter) of n points of dim floats. centroids (k, dim) and assign (n) are filled. Ties go to the
- * lower centroid index. k is clamped to n. */
-hd_status hd_kmeans(const float *points, int n, int dim, int k, uint64_t seed, int max_iter, float *centroids,
-                    int *assign);
-/* Lighting classification: k-means on the ground-truth lights (n, 9); each predicted light goes to
- * its nearest centroid; the percentage that lands in its ground-truth light's cluster. */
-hd_status hd_eval_light_accuracy(const float *gt, const float *pred, int n, int k, uint64_t seed, double *accuracy);
 
 /* A whole evaluation: the set's ground truth (SPEC section 5 folders with NAME.albedo.png,
  * NAME.normal_gt.png, NAME.shading.pfm or .png, NAME.light.txt, NAME.mask.png) scored against
@@ -706,31 +781,7 @@ char *hd_eval_report_json(const hd_eval_report *report);
 hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
 
 /* Relighting measured on real photos without ground truth (src/eval/photo_metrics.c, docs/usage.md
- * "Measuring relighting"). Each compares a relit photo with its input (RGB, same size) over the
- * pixels the relighting changed (`changed`, one byte a pixel, from hd_photo_changed). */
-hd_status hd_photo_changed(const hd_image *input, const hd_image *relit, unsigned char **changed, long *count);
-/* 1000 x the mean over changed pixels of sum_c |rgb_c / (r + g + b) change| (pixels whose r + g + b
- * is 0.06 or less in either picture left out): 0 when every colour is kept. */
-double hd_photo_chroma(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* The correlation of the 5-point Laplacian of log(luminance + 1/255) of relit and input over the
- * changed pixels: 1 when all detail is kept. Luminance: Rec. 709 weights of the stored values. */
-double hd_photo_detail(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* The mean relit / input luminance ratio over discs of radius 0.12 x the pupils' distance around
- * the two pupils (photo pixels, x y) over the same mean across the changed pixels (ratios where
- * the input's luminance exceeds 0.02): 1 when the eyes follow the light. */
-double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigned char *changed,
-                     const float pupils[2][2]);
-/* The mean gradient magnitude (forward differences) of the luminance change relit - input on the
- * border of the changed region (pixels with a 4-neighbour on the other side) over the same inside
- * it: about 1 or less when there is no seam. NAN only for want of memory. */
-double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed);
-/* Mean absolute difference over the 3 channels of the pixels in `where` (NULL: all). */
-double hd_photo_mae(const hd_image *a, const hd_image *b, const unsigned char *where);
-/* The mean luminance of relit over that of input, over `where` (NULL: all). */
-double hd_photo_mean_lum_ratio(const hd_image *input, const hd_image *relit, const unsigned char *where);
-/* |a - b| / |a| (Euclidean norms of the 9 coefficients). */
-double hd_light_difference(const float a[HD_SH_COEFFS], const float b[HD_SH_COEFFS]);
-
+ * "Measuring relighting"; the metrics themselves: src/eval/photo_metrics.h). */
 /* A whole run over a folder of people (one subfolder each, photos inside; NAME.tem beside a photo
  * gives its pupils as points 0 and 1, else the eye contours' centres): every photo relit under the
  * seven presets (brightness kept) and under its own estimated light, by `rule`. Per photo, the
@@ -799,143 +850,6 @@ hd_status hd_pair_eval_run(const char *dir, hd_model *model, const hd_photo_rule
 /* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
 char *hd_pair_report_json(const hd_pair_report *report);
 hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);
-/* SSIM of two pictures of one size (up to 3 channels, clamped to [0, 1]) averaged over the pixels
- * with mask > 0.5 (NULL: all): 1 for equal pictures. NAN only for want of memory. */
-double hd_ssim_masked(const hd_image *a, const hd_image *b, const float *mask);
-
-
-/* ---------------------------------------------------------------- photo alignment (src/align) */
-
-/* From a photograph to the aligned texture space of SPEC section 2 and back (docs/alignment.md).
- *
- * Frames. Photo coordinates are continuous pixels: x right, y down, pixel (i, j) covers
- * [i, i+1) x [j, j+1), so its centre is (i + 0.5, j + 0.5). Landmarks are the 468 vertices of the
- * canonical mesh as found in the photo: (x, y) in photo coordinates and a depth z in the same
- * units as x; which way z points is found by the fit (see depth_sign). Texture coordinates are
- * the canonical mesh's UVs (u right, v down) scaled to the texture side S, texel (x, y) centred
- * at ((x + 0.5) / S, (y + 0.5) / S). Normals are in the camera frame (x right, y up, z toward the
- * viewer). */
-
-#define HD_FACE_LANDMARKS 468
-
-typedef struct hd_aligned_face {
-    int size;          /* texture side S */
-    hd_image texture;  /* 3 x S x S: the photo unwarped (0 outside the mesh's UV layout) */
-    hd_image mask;     /* 1 x S x S: 1 where the texel is inside the mesh, on a triangle facing
-                        * the camera, not hidden by another part of the face, its normal has
-                        * z > 0 and it falls inside the photo; else 0 */
-    hd_image normal;   /* 3 x S x S: coarse normals, unit, camera frame; 0 where mask is 0 */
-    float landmarks[HD_FACE_LANDMARKS][3]; /* photo coordinates (x, y) and depth z */
-    int photo_width, photo_height;         /* the photo the face was found in */
-    float score;       /* detector confidence in [0, 1] (1 when landmarks were given) */
-    float box[4];      /* detection box x0, y0, x1, y1 in photo coordinates (the landmarks'
-                        * bounding box when the landmarks were given) */
-    /* The similarity fit of the canonical mesh P (cm, camera-style frame) to the landmarks,
-     * taken to the camera frame as c = (x, -y, depth_sign * z):
-     *   c_i ~ scale * rotation * P_i + translation  (rotation row-major, det +1). */
-    float scale, rotation[9], translation[3];
-    float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
-    float fit_rms;     /* root-mean-square residual of the fit, in pixels */
-} hd_aligned_face;
-
-/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
- * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
- * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
- * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
- * landmarks. The face owns its images: free with hd_aligned_face_free. */
-hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
-                        hd_aligned_face *face);
-/* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
- * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
- * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
-hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **faces, int *count);
-/* The same for many photos: the detector and landmark models (shipped, found with the data search
- * path) are loaded once (about 0.5 s) and reused. Thread-safe: one aligner serves any number of
- * threads at once; a run that finds every loaded copy of the two models busy in other threads loads
- * another (0.5 s, about 3 MB), which stays for later runs. */
-typedef struct hd_aligner hd_aligner;
-hd_status hd_aligner_load(hd_aligner **aligner);
-void hd_aligner_free(hd_aligner *aligner);
-/* The face detection threshold hd_aligner_run uses from now on, in (0, 1] (default 0.75, the
- * detector's own; out of range: left as it was). */
-void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
-hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
-/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
- * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
- * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
- * over the whole photo, which finds faces from about 7 % of its longer side up). */
-#define HD_DETECT_MIN_SCORE 0.75f
-#define HD_DETECT_MIN_FACE 40.0f
-hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
-void hd_aligned_face_free(hd_aligned_face *face);
-void hd_aligned_faces_free(hd_aligned_face *faces, int count);
-
-/* Writes dir/<stem>.png (texture, 8 bit), <stem>.mask.png (8 bit), <stem>.normal.png (16 bit,
- * SPEC section 2 encoding), <stem>.landmarks.txt (468 lines "x y z") and <stem>.warp.txt (every
- * field of the face but the images: what hd_warp_back needs). Each file is written atomically. */
-hd_status hd_aligned_face_write(const hd_aligned_face *face, const char *dir, const char *stem);
-/* Reads a .warp.txt file into `face` (images left empty: size, landmarks, photo size, fit).
- * Errors name the file and the line. */
-hd_status hd_aligned_face_read_warp(const char *path, hd_aligned_face *face);
-
-/* Warps an aligned texture (any side, any channel count; e.g. a relit face at the model size)
- * back into photo space: for each pixel of the photo_width x photo_height frame, the front-most
- * front-facing landmark triangle under its centre gives barycentrics, hence a UV, where the
- * texture is sampled bilinearly using only texels with tex_mask > 0.5 (tex_mask, of any size, is
- * read at the texel's UV; NULL: face->mask, or if that is empty the texels inside the mesh's UV
- * layout). *warped gets the texture's channels, *coverage 1 channel: 1 where the pixel received a
- * face value, else 0 (and warped 0). */
-hd_status hd_warp_back(const hd_aligned_face *face, const hd_image *texture, const hd_image *tex_mask,
-                       hd_image *warped, hd_image *coverage);
-
-/* What the Poisson solver did, per channel (up to 4). */
-typedef struct hd_poisson_report {
-    int unknowns;            /* pixels solved for */
-    int channels;
-    int iterations[4];       /* conjugate-gradient iterations */
-    double residual[4];      /* final relative residual |b - A f| / |b| */
-    double tolerance;        /* the tolerance asked for */
-    double seconds;
-} hd_poisson_report;
-
-#define HD_POISSON_TOLERANCE 1e-4
-
-/* Seamless cloning (Perez et al. 2003): places `source` in `target` with its top-left pixel at
- * (offset_x, offset_y) and, over the pixels where mask (1 channel, source-sized) > 0.5 and that
- * lie strictly inside both the source and the target (their 4 neighbours exist in both; the
- * others count as boundary), solves  Laplacian(f) = Laplacian(source)  with f = target on
- * the region's boundary (5-point stencil, source differences as the guidance field), in place in
- * `target`, per channel, by conjugate gradients preconditioned with a multigrid V-cycle, to the
- * relative residual `tolerance` (<= 0: HD_POISSON_TOLERANCE). Channels must match. Fails with
- * HD_ERR_NUMERIC if the solver cannot reach the tolerance. report may be NULL. */
-hd_status hd_poisson_blend(const hd_image *source, const hd_image *mask, int offset_x, int offset_y,
-                           double tolerance, hd_image *target, hd_poisson_report *report);
-
-/* What hd_warp_back_blend puts into the photo. */
-typedef enum hd_warp_mode {
-    HD_WARP_REPLACE, /* the texture itself: the face is redrawn at the texture's resolution */
-    HD_WARP_CHANGE   /* the photo plus the change the texture makes, texture - face->texture (the
-                      * latter resampled to the texture's size): the photo's own detail is kept at
-                      * full resolution, so a face larger than the texture stays sharp */
-} hd_warp_mode;
-
-/* Warps `texture` (an aligned result for `face`, e.g. a relit texture at any side, sampled where
- * face->mask > 0.5, or inside the UV layout if face->mask is empty) back into `photo` (the photo
- * the face came from, same size and channels as the texture) as `mode` says, and blends it in
- * with hd_poisson_blend (tolerance <= 0: HD_POISSON_TOLERANCE) over the warped region shrunk by
- * one pixel, so that outside the face the photo is untouched and no seam shows. report may be
- * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
-hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
-                             double tolerance, hd_image *photo, hd_poisson_report *report);
-/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
- * their first call; each file found by the data search path is read once) and then share it,
- * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
- * (hd_aligner_run aligns on it) and these warp back on it. */
-hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
-hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
-
 
 #ifdef __cplusplus
 }

@@ -10,6 +10,7 @@
 #include "test.h"
 #include "core/core.h"
 #include "io/dataset.h"
+#include "apply/apply.h"
 
 #define SIDE 32
 
@@ -361,6 +362,18 @@ static void test_reason_names_operation(void)
         CHECK(strncmp(hd_error(), want, strlen(want)) == 0);
     }
     hd_image_free(&grey);
+    /* a refusal from a piece of the rule (rule.c: no normals) names the operation too */
+    hd_image tex = {0};
+    CHECK(hd_image_alloc(&tex, 8, 8, 3) == HD_OK);
+    for (int i = 0; i < 3; i++) {
+        hd_apply_request q = {NULL, 0, 1, 0, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_LNET, 0.0f, ops[i]};
+        CHECK(hd_apply_decomposition(&tex, &d, NULL, &q, &r) == HD_ERR_ARG);
+        char want[64];
+        snprintf(want, sizeof want, "%s: the decomposition has no normals", ops[i] ? ops[i] : "relight");
+        if (strcmp(hd_error(), want) != 0) fprintf(stderr, "test_apply: reason '%s', want '%s'\n", hd_error(), want);
+        CHECK(strcmp(hd_error(), want) == 0);
+    }
+    hd_image_free(&tex);
 }
 
 int main(void)

@@ -7,6 +7,7 @@
 #include "test.h"
 #include "test_models.h"
 #include "core/core.h"
+#include "eval/metrics.h"
 
 static void test_normals(void)
 {

@@ -8,6 +8,7 @@
 #include "test.h"
 #include "core/core.h"
 #include "light/light.h"
+#include "eval/photo_metrics.h"
 
 static const float dpr_light_00[9] = {
     1.084125496282453138f, -0.4642676300617166185f, 0.02837846795150648915f, 0.6765292733937575687f,

@@ -7,6 +7,7 @@
 #include <string.h>
 #include "test.h"
 #include "core/core.h"
+#include "model/disc.h"
 #include "model/hdnet_net.h"
 #include "train/trainer.h" /* hd_train_init_params: the starting weights */
 
@@ -57,13 +58,15 @@ static void test_paths(void)
     enum { B = 2, S = 32 };
     hd_net_config cfg = {16, S};
     hd_net fast, ref;
+    hd_disc fast_d, ref_d;
     if (hd_net_create(&fast, &cfg, B, HD_NET_TRAIN, HD_CONV_AUTO) != HD_OK ||
-        hd_net_create(&ref, &cfg, B, HD_NET_TRAIN, HD_CONV_NAIVE) != HD_OK) {
+        hd_net_create(&ref, &cfg, B, HD_NET_TRAIN, HD_CONV_NAIVE) != HD_OK ||
+        hd_disc_create(&fast_d, B, S, HD_CONV_AUTO) != HD_OK || hd_disc_create(&ref_d, B, S, HD_CONV_NAIVE) != HD_OK) {
         fprintf(stderr, "net: %s\n", hd_error());
         test_failures++;
         return;
     }
-    hd_train_init_params(&cfg, 5, fast.params, fast.disc_params);
+    hd_train_init_params(&cfg, 5, fast.params, fast_d.params);
     /* biases of +-(0.5 .. 1.5) keep pre-activations away from the leaky ReLU kink, where the two
      * paths' rounding could pick different slopes */
     hd_rng rng;
@@ -75,13 +78,15 @@ static void test_paths(void)
             fast.params[p->offset + k] = (hd_rng_below(&rng, 2) ? 1.0f : -1.0f) * hd_rng_range(&rng, 0.5f, 1.5f);
     }
     memcpy(ref.params, fast.params, fast.table.total * sizeof(float));
-    memcpy(ref.disc_params, fast.disc_params, fast.disc_table.total * sizeof(float));
+    memcpy(ref_d.params, fast_d.params, fast_d.table.total * sizeof(float));
     size_t HW = (size_t)S * S;
     for (size_t i = 0; i < B * 3 * HW; i++) fast.input[i] = ref.input[i] = hd_rng_range(&rng, 0.0f, 1.0f);
 
     hd_net *nets[2] = {&fast, &ref};
+    hd_disc *discs[2] = {&fast_d, &ref_d};
     for (int k = 0; k < 2; k++) {
         hd_net *n = nets[k];
+        hd_disc *D = discs[k];
         hd_net_forward(n);
         hd_net_zero_grad(n);
         hd_rng g;
@@ -92,13 +97,13 @@ static void test_paths(void)
         for (size_t i = 0; i < B * HD_SH_COEFFS; i++) n->d_light[i] = hd_rng_range(&g, -1.0f, 1.0f);
         hd_net_backward(n, HD_TRAIN_ALL);
         /* the discriminator on the albedo */
-        memcpy(n->disc_in, n->albedo, B * 3 * HW * sizeof(float));
-        hd_disc_forward(n);
-        size_t np = (size_t)B * hd_disc_patches(n);
-        for (size_t i = 0; i < np; i++) n->d_disc_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
-        memset(n->d_disc_in, 0, B * 3 * HW * sizeof(float));
-        memset(n->disc_grads, 0, n->disc_table.total * sizeof(float));
-        hd_disc_backward(n, 1, 1);
+        memcpy(D->in, n->albedo, B * 3 * HW * sizeof(float));
+        hd_disc_forward(D);
+        size_t np = (size_t)B * hd_disc_patches(D);
+        for (size_t i = 0; i < np; i++) D->d_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
+        memset(D->d_in, 0, B * 3 * HW * sizeof(float));
+        memset(D->grads, 0, D->table.total * sizeof(float));
+        hd_disc_backward(D, 1, 1);
     }
     struct { const char *name; const float *a, *b; size_t n; } cmp[] = {
         {"albedo", fast.albedo, ref.albedo, B * 3 * HW},
@@ -106,9 +111,9 @@ static void test_paths(void)
         {"normal", fast.normal, ref.normal, B * 3 * HW},
         {"light", fast.light, ref.light, B * HD_SH_COEFFS},
         {"HD-Net gradients", fast.grads, ref.grads, fast.table.total},
-        {"discriminator logits", fast.disc_logit, ref.disc_logit, (size_t)B * hd_disc_patches(&fast)},
-        {"discriminator gradients", fast.disc_grads, ref.disc_grads, fast.disc_table.total},
-        {"discriminator input gradient", fast.d_disc_in, ref.d_disc_in, B * 3 * HW},
+        {"discriminator logits", fast_d.logit, ref_d.logit, (size_t)B * hd_disc_patches(&fast_d)},
+        {"discriminator gradients", fast_d.grads, ref_d.grads, fast_d.table.total},
+        {"discriminator input gradient", fast_d.d_in, ref_d.d_in, B * 3 * HW},
     };
     for (size_t k = 0; k < sizeof cmp / sizeof cmp[0]; k++) {
         double d = max_rel_diff(cmp[k].a, cmp[k].b, cmp[k].n);
@@ -154,6 +159,8 @@ static void test_paths(void)
     free(keep);
     hd_net_free(&fast);
     hd_net_free(&ref);
+    hd_disc_free(&fast_d);
+    hd_disc_free(&ref_d);
 }
 
 int main(void)

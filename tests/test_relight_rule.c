@@ -13,6 +13,7 @@
 #include "test.h"
 #include "core/core.h"
 #include "apply/apply.h"
+#include "eval/photo_metrics.h"
 #include "mesh/mesh.h"
 #include "light/light.h"
 

@@ -85,8 +85,8 @@ typedef struct fd_group {
 static int direction_agrees(hd_trainer *t, int disc, int i0, int i1, float eps, const float *grad, double scale,
                             uint64_t seed, double *fd_out, double *gd_out)
 {
-    const hd_param_table *tab = disc ? &t->net.disc_table : &t->net.table;
-    float *params = disc ? t->net.disc_params : t->net.params;
+    const hd_param_table *tab = disc ? &t->disc.table : &t->net.table;
+    float *params = disc ? t->disc.params : t->net.params;
     size_t a = tab->p[i0].offset, b = tab->p[i1].offset + tab->p[i1].count;
     float *keep = malloc((b - a) * sizeof(float)), *dir = malloc((b - a) * sizeof(float));
     hd_rng rng;
@@ -119,7 +119,7 @@ static int direction_agrees(hd_trainer *t, int disc, int i0, int i1, float eps, 
 static void check_direction(hd_trainer *t, const char *what, int disc, int i0, int i1, float eps, const float *grad,
                             double scale, int kinked)
 {
-    const hd_param_table *tab = disc ? &t->net.disc_table : &t->net.table;
+    const hd_param_table *tab = disc ? &t->disc.table : &t->net.table;
     double fd, gd;
     int tries = kinked ? 3 : 1, agree = 0;
     for (int k = 0; k < tries; k++) {
@@ -140,10 +140,10 @@ static void check_gradients(hd_trainer *t, const char *what, int disc, int by_ne
         test_failures++;
         return;
     }
-    const hd_param_table *tab = disc ? &t->net.disc_table : &t->net.table;
+    const hd_param_table *tab = disc ? &t->disc.table : &t->net.table;
     size_t n = tab->total;
     float *grad = malloc(n * sizeof(float));
-    memcpy(grad, disc ? t->net.disc_grads : t->net.grads, n * sizeof(float));
+    memcpy(grad, disc ? t->disc.grads : t->net.grads, n * sizeof(float));
     /* what the analytic gradient treats as constants stays constant: N-Net's input S and l_hat */
     size_t HW = (size_t)t->net.H * t->net.W;
     float *held = malloc((size_t)t->net.B * HW * sizeof(float));
@@ -265,9 +265,9 @@ static void test_micro_batch(void)
         gmax = fmax(gmax, fabs(whole.net.grads[i]));
         gdiff = fmax(gdiff, fabs(whole.net.grads[i] - micro.net.grads[i]));
     }
-    for (size_t i = 0; i < whole.net.disc_table.total; i++) {
-        dmax = fmax(dmax, fabs(whole.net.disc_grads[i]));
-        ddiff = fmax(ddiff, fabs(whole.net.disc_grads[i] - micro.net.disc_grads[i]));
+    for (size_t i = 0; i < whole.disc.table.total; i++) {
+        dmax = fmax(dmax, fabs(whole.disc.grads[i]));
+        ddiff = fmax(ddiff, fabs(whole.disc.grads[i] - micro.disc.grads[i]));
     }
     CHECK(gmax > 0 && gdiff <= 1e-4 * gmax);
     CHECK(dmax > 0 && ddiff <= 1e-4 * dmax);
@@ -287,13 +287,13 @@ static void test_stage2(void)
     size_t n = t.net.table.total, lnet = t.lnet_offset;
     float *before = malloc(n * sizeof(float)), *disc0 = malloc(sizeof(float));
     memcpy(before, t.net.params, n * sizeof(float));
-    disc0[0] = t.net.disc_params[0];
+    disc0[0] = t.disc.params[0];
     hd_step_result r;
     CHECK(hd_trainer_phase(&t, 0) == HD_TRAIN_LNET && hd_trainer_phase(&t, 1) == HD_TRAIN_ALL);
     CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
     CHECK(memcmp(before, t.net.params, lnet * sizeof(float)) == 0); /* conv_in, A-, S-, N-Net frozen */
     CHECK(memcmp(before + lnet, t.net.params + lnet, (n - lnet) * sizeof(float)) != 0);
-    CHECK(t.net.disc_params[0] != disc0[0]);
+    CHECK(t.disc.params[0] != disc0[0]);
     CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
     int a = hd_param_find(&t.net.table, "a_net.enc0.weight"), nn = hd_param_find(&t.net.table, "n_net.dec1c.weight");
     CHECK(memcmp(before + t.net.table.p[a].offset, t.net.params + t.net.table.p[a].offset,
@@ -315,12 +315,12 @@ static void test_stage2(void)
         n = t.net.table.total, lnet = t.lnet_offset;
         before = malloc(n * sizeof(float));
         memcpy(before, t.net.params, n * sizeof(float));
-        float d0 = t.net.disc_params[0];
+        float d0 = t.disc.params[0];
         CHECK(hd_trainer_step(&t, &r, NULL) == HD_OK);
         CHECK(memcmp(before, t.net.params, lnet * sizeof(float)) == 0);
         moved[run] = 0;
         for (size_t i = lnet; i < n; i++) moved[run] = fmaxf(moved[run], fabsf(t.net.params[i] - before[i]));
-        disc_moved[run] = fabsf(t.net.disc_params[0] - d0);
+        disc_moved[run] = fabsf(t.disc.params[0] - d0);
         free(before);
         hd_trainer_free(&t);
     }

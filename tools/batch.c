@@ -288,8 +288,8 @@ int cli_summary_status(const cli_summary *s)
     return s->inputs > 0 && s->done == s->inputs ? CLI_EXIT_OK : CLI_EXIT_FAIL;
 }
 
-int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const char *out, int single, int quiet,
-                  cli_photo_fn fn, void *ctx, cli_summary *summary)
+int cli_batch_run(const char *cmd, const char *verb, const char *no_face_hint, const cli_inputs *in, const char *out,
+                  int single, int quiet, cli_photo_fn fn, void *ctx, cli_summary *summary)
 {
     cli_summary s = {in->count, 0, 0, 0, 0, 0.0};
     const int many = in->total > 1, show = many && !quiet && cli_batch_reports();
@@ -306,10 +306,7 @@ int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const
         const int write_errno = st == HD_OK ? 0 : hd_take_write_errno();
         if (st != HD_OK && show && tty) fprintf(stderr, "\r\033[K"); /* off the progress line */
         if (st == HD_ERR_NOTFOUND) {
-            fprintf(stderr, "hdnet %s: %s: no face found%s\n", cmd, in->v[i].path,
-                    many                           ? ", skipped"
-                    : strcmp(cmd, "align") == 0 ? "" /* the only one without --aligned */
-                                                : " (give --aligned if it is an aligned face texture)");
+            fprintf(stderr, "hdnet %s: %s: no face found%s\n", cmd, in->v[i].path, many ? ", skipped" : no_face_hint);
             s.no_face++;
         } else if (st != HD_OK) {
             const char *why = hd_error();

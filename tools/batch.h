@@ -62,13 +62,16 @@ typedef hd_status (*cli_photo_fn)(void *ctx, const cli_input *in, const char *ou
  * the exit status: 0 when every input was done, 1 when any had no face or failed (or none was
  * given). summary (may be NULL) receives the counts, for --json. Under MPI each rank runs its
  * share and reports its own failures; the progress line is rank 0's share, and the summary, the
- * counts and the exit status are the job's, summed over the ranks (the same on every rank). */
+ * counts and the exit status are the job's, summed over the ranks (the same on every rank).
+ * no_face_hint follows "no face found" when the one input has none: CLI_NO_FACE_ALIGNED for the
+ * commands that take --aligned, "" for the others. */
+#define CLI_NO_FACE_ALIGNED " (give --aligned if it is an aligned face texture)"
 typedef struct cli_summary {
     int inputs, done, no_face, failed, faces;
     double seconds;
 } cli_summary;
-int cli_batch_run(const char *cmd, const char *verb, const cli_inputs *in, const char *out, int single, int quiet,
-                  cli_photo_fn fn, void *ctx, cli_summary *summary);
+int cli_batch_run(const char *cmd, const char *verb, const char *no_face_hint, const cli_inputs *in, const char *out,
+                  int single, int quiet, cli_photo_fn fn, void *ctx, cli_summary *summary);
 /* Sums a rank's counts over every rank of the job (MPI_Allreduce; nothing for one process) and
  * sets seconds to the time since t0 (every rank has waited for the slowest by then). */
 hd_status cli_summary_reduce(cli_summary *s, double t0);

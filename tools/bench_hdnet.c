@@ -42,7 +42,7 @@ static size_t training_bytes(const hd_trainer *t)
 {
     const hd_net *n = &t->net;
     size_t HW = (size_t)n->H * n->W, B = (size_t)n->B, batch_images = 2 * (size_t)t->batch.pairs;
-    size_t floats = 4 * n->table.total + 4 * n->disc_table.total + n->act_floats;
+    size_t floats = 4 * n->table.total + 4 * t->disc.table.total + n->act_floats + t->disc.act_floats;
     floats += B * HW * 12 + HW + B * HD_SH_COEFFS; /* losses */
     floats += 2 * batch_images * 10 * HW;          /* image, mask, coarse normal, albedo: twice */
     return floats * sizeof(float) + hd_unet_memory(n->a_net) + hd_unet_memory(n->s_net) + hd_unet_memory(n->n_net);
@@ -139,7 +139,7 @@ int bench_hdnet(const bench_args *a)
     hd_step_result res;
     if (hd_trainer_step(&t, &res, NULL) != HD_OK) goto fail; /* warm-up */
     double step = 1e30;
-    t.net.profile = &prof;
+    t.net.profile = t.disc.profile = &prof;
     for (int r = 0; r < step_repeats; r++) {
         memset(&prof, 0, sizeof prof);
         double t0 = hd_seconds();
@@ -148,14 +148,14 @@ int bench_hdnet(const bench_args *a)
         step = dt < step ? dt : step;
         profile_min(&step_prof, &prof, r == 0);
     }
-    t.net.profile = NULL;
+    t.net.profile = t.disc.profile = NULL;
     /* both Adam updates alone, as the step makes them */
     double adam = 1e30;
     for (int r = 0; r < step_repeats; r++) {
         double t0 = hd_seconds();
         hd_adam_step(t.net.params, t.net.grads, t.adam_m, t.adam_v, t.net.table.total, t.lr, HD_ADAM_BETA1,
                      HD_ADAM_BETA2, HD_ADAM_EPS, t.adam_t + 1);
-        hd_adam_step(t.net.disc_params, t.net.disc_grads, t.disc_adam_m, t.disc_adam_v, t.net.disc_table.total, t.lr,
+        hd_adam_step(t.disc.params, t.disc.grads, t.disc_adam_m, t.disc_adam_v, t.disc.table.total, t.lr,
                      HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t.disc_adam_t + 1);
         double dt = hd_seconds() - t0;
         adam = dt < adam ? dt : adam;

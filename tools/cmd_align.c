@@ -119,7 +119,7 @@ int cmd_align(int argc, char **argv)
     }
     hd_aligner_set_min_score(run.aligner, min_score);
     cli_summary sum;
-    rc = cli_batch_run("align", "aligned", &in, out_dir, 0, quiet || json, align_one, &run, &sum);
+    rc = cli_batch_run("align", "aligned", "", &in, out_dir, 0, quiet || json, align_one, &run, &sum);
     if (json) rc = cli_json_print_run("align", &run.results, &in, &sum, out_dir, rc);
 done:
     cJSON_Delete(run.results);

@@ -267,25 +267,208 @@ static hd_status decompose_photo(hd_model *model, hd_aligner *aligner, const job
     return st;
 }
 
+/* The command line, parsed. */
+typedef struct decompose_args {
+    const char *model_path, *out, *mask_path, *white_balance;
+    int batch, aligned, threads, quiet, json;
+    float min_score;
+} decompose_args;
+
+static int decompose_check(const cli_cmd_spec *spec, const decompose_args *a)
+{
+    int code;
+    if ((code = cli_opts_common(spec, a->threads, a->min_score)) || (code = cli_white_balance_set(spec, a->white_balance, NULL)))
+        return code;
+    if (!a->out) return cli_usage_error(spec, "-o is required");
+    if (a->batch < 1 || a->batch > 256) return cli_usage_error(spec, "--batch wants 1..256, got %d", a->batch);
+    return 0;
+}
+
+/* What a run holds and counts (photos and textures alike). */
+typedef struct decompose_run {
+    const decompose_args *a;
+    hd_model *model;
+    hd_aligner *aligner;
+    cJSON *results; /* with --json: every input's outcome */
+    int failed, written, no_face, faces, stop; /* stop: a write failed, the rest is not run */
+    char *cleaned;  /* the last output folder cleared of stale temporaries */
+    int show;       /* the progress line */
+    cli_progress progress;
+} decompose_run;
+
+/* One input's outcome in the --json results. */
+static void add_result(decompose_run *run, const job *j, const char *kind, const char *status, int faces)
+{
+    if (!run->results) return;
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "file", j->image);
+    cJSON_AddStringToObject(o, "kind", kind);
+    cJSON_AddStringToObject(o, "status", status);
+    cJSON_AddNumberToObject(o, "faces", faces);
+    char *stem = hd_path_join(j->out_dir, j->name);
+    if (strcmp(status, "done") == 0 && stem) cJSON_AddStringToObject(o, "output", stem);
+    free(stem);
+    cJSON_AddItemToArray(run->results, o);
+}
+
+static void job_free(job *j)
+{
+    free(j->image);
+    free(j->out_dir);
+    free(j->name);
+}
+
+/* The photos of jobs one at a time (each aligned first); the aligned textures are kept, in order,
+ * at the front of jobs, their number returned. */
+static int run_photos(decompose_run *run, job_list *jobs)
+{
+    const decompose_args *a = run->a;
+    int textures = 0;
+    for (int i = 0; i < jobs->count; i++) {
+        job *j = &jobs->v[i];
+        if (a->aligned || hd_input_kind_of(j->image) == HD_INPUT_TEXTURE) {
+            jobs->v[textures++] = *j;
+            continue;
+        }
+        int nfaces = 0, write_failed = 0;
+        if (run->stop) { /* a write failed before: the rest is not run */
+            job_free(j);
+            continue;
+        }
+        hd_status st = run->aligner ? HD_OK : hd_aligner_load(&run->aligner);
+        if (st == HD_OK) hd_aligner_set_min_score(run->aligner, a->min_score);
+        if (st == HD_OK) st = prepare_folder(j->out_dir, &run->cleaned, &write_failed);
+        if (st == HD_OK) st = decompose_photo(run->model, run->aligner, j, &nfaces, &write_failed);
+        if (st != HD_OK) {
+            cli_report("decompose"); /* the reason names the photo */
+            if (st == HD_ERR_NOTFOUND) run->no_face++;
+            else run->failed++;
+            run->stop = write_failed;
+        } else {
+            if (!a->quiet && !a->json)
+                printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", j->image, nfaces, nfaces == 1 ? "" : "s",
+                       j->out_dir, j->name, j->out_dir, j->name);
+            run->written++;
+            run->faces += nfaces;
+        }
+        add_result(run, j, "photo", st == HD_OK ? "done" : st == HD_ERR_NOTFOUND ? "no_face" : "failed", nfaces);
+        job_free(j);
+        if (run->show && !run->stop) cli_progress_update(&run->progress, run->written + run->failed + run->no_face, NULL);
+    }
+    return textures;
+}
+
+/* Writes the outputs of texture j (decomposed as d, its mask and sheet) as one set; the status
+ * string of its --json result. */
+static const char *write_texture(decompose_run *run, const job *j, const hd_decomposition *d, const hd_image *mask,
+                                 const hd_sheet *sheet)
+{
+    if (run->stop) return "not_run"; /* a write failed before */
+    int write_failed = 0;
+    hd_status st = prepare_folder(j->out_dir, &run->cleaned, &write_failed);
+    if (st == HD_OK) {
+        hd_atomic_set_begin(); /* the image's files appear together or not at all */
+        st = write_outputs(j, d, mask, sheet);
+        hd_status set_end = hd_atomic_set_end(st == HD_OK);
+        write_failed = st == HD_ERR_IO || (st == HD_OK && set_end != HD_OK);
+        if (st == HD_OK) st = set_end;
+    }
+    if (st != HD_OK) {
+        cli_report("decompose");
+        run->failed++;
+        run->stop = write_failed;
+        return "failed";
+    }
+    run->written++;
+    run->faces++;
+    return "done";
+}
+
+/* Buffers of one forward pass of up to `batch` textures. */
+typedef struct texture_batch {
+    hd_image *tex, *mask;
+    hd_decomposition *d;
+    hd_sheet *sheets;
+    int *index;
+} texture_batch;
+
+/* The textures jobs->v[start, end) as one forward pass. */
+static void run_texture_batch(decompose_run *run, const job_list *jobs, int start, int end, texture_batch *b)
+{
+    const int size = hd_model_size(run->model);
+    const char *status[256] = {0};
+    int n = 0;
+    for (int i = start; i < end; i++) {
+        char *source = NULL;
+        status[i - start] = "failed";
+        if (hd_image_read_as(jobs->v[i].image, 3, &b->tex[n]) != HD_OK ||
+            hd_face_mask_read(jobs->v[i].image, run->a->mask_path, size, size, &b->mask[n], &source) != HD_OK) {
+            cli_report("decompose");
+            hd_image_free(&b->tex[n]);
+            run->failed++;
+        } else {
+            b->index[n++] = i;
+        }
+        free(source);
+    }
+    if (n > 0 && decompose_textures(run->model, b->tex, n, b->d, b->sheets) != HD_OK) {
+        cli_report("decompose");
+        run->failed += n;
+    } else {
+        for (int k = 0; k < n; k++) {
+            status[b->index[k] - start] = write_texture(run, &jobs->v[b->index[k]], &b->d[k], &b->mask[k], &b->sheets[k]);
+            hd_sheet_free(&b->sheets[k]);
+            hd_decomposition_free(&b->d[k]);
+        }
+    }
+    for (int k = 0; k < n; k++) {
+        hd_image_free(&b->tex[k]);
+        hd_image_free(&b->mask[k]);
+    }
+    for (int i = start; i < end; i++)
+        add_result(run, &jobs->v[i], "aligned", status[i - start], strcmp(status[i - start], "done") == 0);
+}
+
+/* The aligned textures (jobs, after run_photos), `batch` per forward pass; photos_seen counts the
+ * progress line's photos before them. */
+static void run_textures(decompose_run *run, const job_list *jobs, int photos_seen)
+{
+    const int batch = run->a->batch;
+    texture_batch b = {calloc((size_t)batch, sizeof *b.tex), calloc((size_t)batch, sizeof *b.mask),
+                       calloc((size_t)batch, sizeof *b.d), calloc((size_t)batch, sizeof *b.sheets),
+                       calloc((size_t)batch, sizeof *b.index)};
+    if (!b.tex || !b.mask || !b.d || !b.sheets || !b.index) {
+        /* the textures fail; the counts still meet those of the other MPI ranks */
+        fprintf(stderr, "hdnet decompose: out of memory for %d aligned texture%s\n", jobs->count,
+                jobs->count == 1 ? "" : "s");
+        run->failed += jobs->count;
+    } else {
+        for (int start = 0; start < jobs->count && !run->stop; start += batch) {
+            int end = start + batch < jobs->count ? start + batch : jobs->count;
+            run_texture_batch(run, jobs, start, end, &b);
+            if (run->show && !run->stop) cli_progress_update(&run->progress, photos_seen + end, NULL);
+        }
+    }
+    free(b.tex), free(b.mask), free(b.d), free(b.sheets), free(b.index);
+}
+
 int cmd_decompose(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *white_balance = NULL;
-    int batch = 4, aligned = 0, threads = 0, quiet = 0, json = 0;
-    float min_score = cli_min_score_default();
+    decompose_args a = {.batch = 4, .min_score = cli_min_score_default()};
     const cli_opt opts[] = {
-        CLI_OPT_MODEL_ROW(model_path),
-        {"output", 'o', CLI_OPT_STRING, &out, "DIR", "output folder (created; folder inputs keep their layout below it)"},
-        {"batch", 0, CLI_OPT_INT, &batch, "N", "aligned textures per forward pass (default 4)"},
-        {"mask", 0, CLI_OPT_STRING, &mask_path, "M.png",
+        CLI_OPT_MODEL_ROW(a.model_path),
+        {"output", 'o', CLI_OPT_STRING, &a.out, "DIR", "output folder (created; folder inputs keep their layout below it)"},
+        {"batch", 0, CLI_OPT_INT, &a.batch, "N", "aligned textures per forward pass (default 4)"},
+        {"mask", 0, CLI_OPT_STRING, &a.mask_path, "M.png",
          "face mask for aligned textures without a NAME.mask.png beside them (default: all ones)"},
-        {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
+        {"aligned", 0, CLI_OPT_FLAG, &a.aligned, NULL,
          "the inputs are aligned face textures, not photos (automatic for an image with NAME.mask.png or "
          "NAME.normal.png beside it)"},
-        CLI_OPT_WHITE_BALANCE_ROW(white_balance),
-        CLI_OPT_MIN_SCORE_ROW(min_score),
-        CLI_OPT_THREADS_ROW(threads),
-        CLI_OPT_QUIET_ROW(quiet),
-        {"json", 0, CLI_OPT_FLAG, &json, NULL, "print the summary (and every input's outcome) as JSON on stdout"},
+        CLI_OPT_WHITE_BALANCE_ROW(a.white_balance),
+        CLI_OPT_MIN_SCORE_ROW(a.min_score),
+        CLI_OPT_THREADS_ROW(a.threads),
+        CLI_OPT_QUIET_ROW(a.quiet),
+        {"json", 0, CLI_OPT_FLAG, &a.json, NULL, "print the summary (and every input's outcome) as JSON on stdout"},
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -309,175 +492,50 @@ int cmd_decompose(int argc, char **argv)
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    if ((code = cli_opts_common(&spec, threads, min_score)) || (code = cli_white_balance_set(&spec, white_balance, NULL)) ||
-        (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
-        ((batch < 1 || batch > 256) && (code = cli_usage_error(&spec, "--batch wants 1..256, got %d", batch)))) {
+    if ((code = decompose_check(&spec, &a))) {
         free(pos);
         return code;
     }
     hd_set_durable_writes(0); /* bulk pictures: atomic (renamed into place) but not fsynced */
     job_list jobs = {0};
     cli_inputs in = {0};
-    hd_model *model = NULL;
-    hd_aligner *aligner = NULL;
-    cJSON *results = json ? cJSON_CreateArray() : NULL;
-    int failed = 0, written = 0, textures = 0, no_face = 0, faces = 0, rc = CLI_EXIT_OK, inputs = 0, stop = 0;
-    char *cleaned = NULL; /* the last output folder cleared of stale temporaries */
+    decompose_run run = {&a, NULL, NULL, a.json ? cJSON_CreateArray() : NULL, 0, 0, 0, 0, 0, NULL, 0, {0}};
+    int rc = CLI_EXIT_OK, inputs = 0;
     hd_status st = cli_inputs_collect(&in, pos, npos);
-    for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], out);
+    for (int i = 0; i < in.count && st == HD_OK; i++) st = add_input(&jobs, &in.v[i], a.out);
     free(pos);
-    if (st != HD_OK || in.total == 0 || hd_model_load(model_path, &model) != HD_OK ||
-        cli_white_balance_set(&spec, white_balance, model) ||
-        hd_mkdirs(out) != HD_OK) {
+    if (st != HD_OK || in.total == 0 || hd_model_load(a.model_path, &run.model) != HD_OK ||
+        cli_white_balance_set(&spec, a.white_balance, run.model) || hd_mkdirs(a.out) != HD_OK) {
         rc = cli_report("decompose");
         goto done;
     }
     inputs = jobs.count;
     const double t0 = hd_seconds();
-    cli_progress progress;
     char label[64];
-    const int show = !quiet && !json && in.total > 1 && cli_batch_reports(); /* under MPI: rank 0's share */
-    if (show) cli_progress_start(&progress, cli_batch_label("decompose", label, sizeof label), jobs.count);
-    /* photos one at a time (each aligned first); the aligned textures below in batches */
-    for (int i = 0; i < jobs.count; i++) {
-        if (aligned || hd_input_kind_of(jobs.v[i].image) == HD_INPUT_TEXTURE) {
-            jobs.v[textures++] = jobs.v[i]; /* keep the textures, in order, at the front */
-            continue;
-        }
-        int nfaces = 0, write_failed = 0;
-        if (stop) { /* a write failed before: the rest is not run */
-            free(jobs.v[i].image);
-            free(jobs.v[i].out_dir);
-            free(jobs.v[i].name);
-            continue;
-        }
-        st = aligner ? HD_OK : hd_aligner_load(&aligner);
-        if (st == HD_OK) hd_aligner_set_min_score(aligner, min_score);
-        if (st == HD_OK) st = prepare_folder(jobs.v[i].out_dir, &cleaned, &write_failed);
-        if (st == HD_OK) st = decompose_photo(model, aligner, &jobs.v[i], &nfaces, &write_failed);
-        if (st != HD_OK) {
-            cli_report("decompose"); /* the reason names the photo */
-            if (st == HD_ERR_NOTFOUND) no_face++;
-            else failed++;
-            stop = write_failed;
-        } else {
-            if (!quiet && !json)
-                printf("%s: %d face%s -> %s/%s.face*.*, %s/%s.recon.png\n", jobs.v[i].image, nfaces,
-                       nfaces == 1 ? "" : "s", jobs.v[i].out_dir, jobs.v[i].name, jobs.v[i].out_dir, jobs.v[i].name);
-            written++;
-            faces += nfaces;
-        }
-        if (results) {
-            cJSON *o = cJSON_CreateObject();
-            cJSON_AddStringToObject(o, "file", jobs.v[i].image);
-            cJSON_AddStringToObject(o, "kind", "photo");
-            cJSON_AddStringToObject(o, "status", st == HD_OK ? "done" : st == HD_ERR_NOTFOUND ? "no_face" : "failed");
-            cJSON_AddNumberToObject(o, "faces", nfaces);
-            char *stem = hd_path_join(jobs.v[i].out_dir, jobs.v[i].name);
-            if (st == HD_OK && stem) cJSON_AddStringToObject(o, "output", stem);
-            free(stem);
-            cJSON_AddItemToArray(results, o);
-        }
-        free(jobs.v[i].image);
-        free(jobs.v[i].out_dir);
-        free(jobs.v[i].name);
-        if (show && !stop) cli_progress_update(&progress, written + failed + no_face, NULL);
-    }
+    run.show = !a.quiet && !a.json && in.total > 1 && cli_batch_reports(); /* under MPI: rank 0's share */
+    if (run.show) cli_progress_start(&run.progress, cli_batch_label("decompose", label, sizeof label), jobs.count);
+    const int textures = run_photos(&run, &jobs);
     const int photos_seen = jobs.count - textures;
     jobs.count = textures;
-    const int size = hd_model_size(model);
-    hd_image *tex = calloc((size_t)batch, sizeof *tex), *mask = calloc((size_t)batch, sizeof *mask);
-    hd_decomposition *d = calloc((size_t)batch, sizeof *d);
-    hd_sheet *sheets = calloc((size_t)batch, sizeof *sheets);
-    int *index = calloc((size_t)batch, sizeof *index);
-    const int no_memory = !tex || !mask || !d || !sheets || !index;
-    if (no_memory) { /* the textures fail; the counts below still meet those of the other MPI ranks */
-        fprintf(stderr, "hdnet decompose: out of memory for %d aligned texture%s\n", jobs.count, jobs.count == 1 ? "" : "s");
-        failed += jobs.count;
-    }
-    for (int start = 0; start < jobs.count && !stop && !no_memory; start += batch) {
-        int end = start + batch < jobs.count ? start + batch : jobs.count, n = 0;
-        const char *status[256] = {0};
-        for (int i = start; i < end; i++) {
-            char *source = NULL;
-            status[i - start] = "failed";
-            if (hd_image_read_as(jobs.v[i].image, 3, &tex[n]) != HD_OK ||
-                hd_face_mask_read(jobs.v[i].image, mask_path, size, size, &mask[n], &source) != HD_OK) {
-                cli_report("decompose");
-                hd_image_free(&tex[n]);
-                failed++;
-            } else {
-                index[n++] = i;
-            }
-            free(source);
-        }
-        if (n > 0 && decompose_textures(model, tex, n, d, sheets) != HD_OK) {
-            cli_report("decompose");
-            failed += n;
-        } else {
-            for (int k = 0; k < n; k++) {
-                const job *j = &jobs.v[index[k]];
-                int write_failed = 0;
-                st = stop ? HD_OK : prepare_folder(j->out_dir, &cleaned, &write_failed);
-                if (!stop && st == HD_OK) {
-                    hd_atomic_set_begin(); /* the image's files appear together or not at all */
-                    st = write_outputs(j, &d[k], &mask[k], &sheets[k]);
-                    hd_status set_end = hd_atomic_set_end(st == HD_OK);
-                    write_failed = st == HD_ERR_IO || (st == HD_OK && set_end != HD_OK);
-                    if (st == HD_OK) st = set_end;
-                }
-                if (stop) {
-                    status[index[k] - start] = "not_run"; /* a write failed before */
-                } else if (st != HD_OK) {
-                    cli_report("decompose");
-                    failed++;
-                    stop = write_failed;
-                } else {
-                    written++;
-                    faces++;
-                    status[index[k] - start] = "done";
-                }
-                hd_sheet_free(&sheets[k]);
-                hd_decomposition_free(&d[k]);
-            }
-        }
-        for (int k = 0; k < n; k++) {
-            hd_image_free(&tex[k]);
-            hd_image_free(&mask[k]);
-        }
-        for (int i = start; i < end && results; i++) {
-            cJSON *o = cJSON_CreateObject();
-            cJSON_AddStringToObject(o, "file", jobs.v[i].image);
-            cJSON_AddStringToObject(o, "kind", "aligned");
-            cJSON_AddStringToObject(o, "status", status[i - start]);
-            cJSON_AddNumberToObject(o, "faces", strcmp(status[i - start], "done") == 0);
-            char *stem = hd_path_join(jobs.v[i].out_dir, jobs.v[i].name);
-            if (strcmp(status[i - start], "done") == 0 && stem) cJSON_AddStringToObject(o, "output", stem);
-            free(stem);
-            cJSON_AddItemToArray(results, o);
-        }
-        if (show && !stop) cli_progress_update(&progress, photos_seen + end, NULL);
-    }
-    if (show && !stop) cli_progress_finish(&progress, inputs, NULL);
-    if (stop)
+    run_textures(&run, &jobs, photos_seen);
+    if (run.show && !run.stop) cli_progress_finish(&run.progress, inputs, NULL);
+    if (run.stop)
         fprintf(stderr, "hdnet decompose: stopped at the first write failure (the images after it were not decomposed)\n");
-    free(tex), free(mask), free(d), free(sheets), free(index);
-    cli_summary sum = {inputs, written, no_face, failed, faces, 0.0};
+    cli_summary sum = {inputs, run.written, run.no_face, run.failed, run.faces, 0.0};
     if (cli_summary_reduce(&sum, t0) != HD_OK) cli_report("decompose"); /* the job's counts, on every rank */
-    written = sum.done, failed = sum.failed, no_face = sum.no_face;
-    if (!quiet && !json && cli_batch_reports()) {
-        printf("decomposed %d image%s into %s", written, written == 1 ? "" : "s", out);
-        if (failed) printf(" (%d failed)", failed);
-        if (no_face) printf(" (%d photo%s without a face)", no_face, no_face == 1 ? "" : "s");
+    if (!a.quiet && !a.json && cli_batch_reports()) {
+        printf("decomposed %d image%s into %s", sum.done, sum.done == 1 ? "" : "s", a.out);
+        if (sum.failed) printf(" (%d failed)", sum.failed);
+        if (sum.no_face) printf(" (%d photo%s without a face)", sum.no_face, sum.no_face == 1 ? "" : "s");
         printf("\n");
     }
     rc = cli_summary_status(&sum);
-    if (json) rc = cli_json_print_run("decompose", &results, &in, &sum, out, rc);
+    if (a.json) rc = cli_json_print_run("decompose", &run.results, &in, &sum, a.out, rc);
 done:
-    free(cleaned);
-    cJSON_Delete(results);
-    if (model) hd_model_free(model);
-    hd_aligner_free(aligner);
+    free(run.cleaned);
+    cJSON_Delete(run.results);
+    if (run.model) hd_model_free(run.model);
+    hd_aligner_free(run.aligner);
     job_list_free(&jobs);
     cli_inputs_free(&in);
     return rc;

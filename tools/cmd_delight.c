@@ -77,7 +77,7 @@ int cmd_delight(int argc, char **argv)
     if (cli_inputs_collect(&in, pos, npos) != HD_OK || hd_model_load(model_path, &run.model) != HD_OK)
         rc = cli_report("delight");
     else
-        rc = cli_batch_run("delight", "delit", &in, out, single, quiet, delight_one, &run, NULL);
+        rc = cli_batch_run("delight", "delit", CLI_NO_FACE_ALIGNED, &in, out, single, quiet, delight_one, &run, NULL);
     if (run.model) hd_model_free(run.model);
     hd_aligner_free(run.aligner);
     cli_inputs_free(&in);

@@ -184,26 +184,85 @@ static cJSON *detect_json(const char *path, const hd_image *photo, float min_sco
     return doc;
 }
 
+/* The canvas -o draws on: the photo itself, or (zoom_size > 0) the axis-aligned square around the
+ * first face's landmark crop (rois[0]; without landmarks the crop of its box), enlarged to
+ * zoom_size x zoom_size pixels. */
+static hd_status canvas_of(const hd_image *photo, const hd_face_box *faces, const hd_face_roi *rois, int zoom_size,
+                           canvas *cv)
+{
+    hd_status st;
+    if (zoom_size > 0) {
+        const hd_face_roi *r = rois ? &rois[0] : NULL;
+        hd_face_roi from_box;
+        if (!r) {
+            hd_face_roi_from_box(&faces[0], &from_box);
+            r = &from_box;
+        }
+        float side = r->size * (fabsf(cosf(r->angle)) + fabsf(sinf(r->angle)));
+        cv->zoom = (float)zoom_size / side;
+        cv->origin[0] = r->cx - 0.5f * side;
+        cv->origin[1] = r->cy - 0.5f * side;
+        if ((st = hd_image_alloc(&cv->img, zoom_size, zoom_size, 3)) != HD_OK) return st;
+        float *rgb = hd_malloc((size_t)zoom_size * zoom_size * 3 * sizeof *rgb);
+        if (!rgb) return HD_ERR_NOMEM;
+        float ax[2] = {1.0f / cv->zoom, 0.0f}, ay[2] = {0.0f, 1.0f / cv->zoom};
+        hd_face_sample(photo, cv->origin, ax, ay, zoom_size, zoom_size, 0.0f, 1.0f, HD_BORDER_ZERO, rgb);
+        size_t plane = (size_t)zoom_size * zoom_size;
+        for (size_t p = 0; p < plane; p++)
+            for (int c = 0; c < 3; c++) cv->img.data[c * plane + p] = rgb[3 * p + c];
+        free(rgb);
+    } else {
+        cv->zoom = 1.0f;
+        if ((st = hd_image_alloc(&cv->img, photo->width, photo->height, 3)) != HD_OK) return st;
+        memcpy(cv->img.data, photo->data, (size_t)photo->width * photo->height * 3 * sizeof(float));
+    }
+    cv->alpha = 1.0f;
+    int side = cv->img.width > cv->img.height ? cv->img.width : cv->img.height;
+    cv->thick = side / 400 > 1 ? side / 400 : 1;
+    return HD_OK;
+}
+
+/* The command line, parsed. */
+typedef struct detect_args {
+    const char *out, *landmarks_path, *draw_text;
+    float min_score, min_face;
+    int no_landmarks, zoom_size, threads, json;
+    int draw; /* DRAW_* bits of draw_text */
+} detect_args;
+
+static int detect_check(const cli_cmd_spec *spec, detect_args *a)
+{
+    int code;
+    if (!parse_draw(a->draw_text, &a->draw))
+        return cli_usage_error(spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", a->draw_text);
+    if ((code = cli_opts_common(spec, a->threads, a->min_score))) return code;
+    if (!(a->min_face >= 0.0f && a->min_face <= (float)HD_IMAGE_MAX_SIDE))
+        return cli_usage_error(spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)a->min_face);
+    if (a->zoom_size < 0 || a->zoom_size > 4096) return cli_usage_error(spec, "--zoom must be in 0..4096, got %d", a->zoom_size);
+    if (a->no_landmarks && a->landmarks_path)
+        return cli_usage_error(spec, "--landmarks needs the face mesh (drop --no-landmarks)");
+    if (a->zoom_size && !a->out) return cli_usage_error(spec, "--zoom goes with -o");
+    return 0;
+}
+
 int cmd_detect(int argc, char **argv)
 {
-    const char *out = NULL, *landmarks_path = NULL, *draw_text = "box,keypoints,landmarks";
-    float min_score = HD_FACE_MIN_SCORE, min_face = HD_FACE_MIN_SIZE;
-    int no_landmarks = 0, zoom_size = 0, threads = 0, json = 0;
+    detect_args a = {.draw_text = "box,keypoints,landmarks", .min_score = HD_FACE_MIN_SCORE, .min_face = HD_FACE_MIN_SIZE};
     const cli_opt opts[] = {
-        {"output", 'o', CLI_OPT_STRING, &out, "OUT.png", "draw the faces on the photo into this PNG"},
-        {"landmarks", 0, CLI_OPT_STRING, &landmarks_path, "L.txt",
+        {"output", 'o', CLI_OPT_STRING, &a.out, "OUT.png", "draw the faces on the photo into this PNG"},
+        {"landmarks", 0, CLI_OPT_STRING, &a.landmarks_path, "L.txt",
          "write the landmarks: per face a '# face' line and 468 lines 'x y z'"},
-        CLI_OPT_MIN_SCORE_ROW(min_score),
-        {"min-face", 0, CLI_OPT_FLOAT, &min_face, "PX",
+        CLI_OPT_MIN_SCORE_ROW(a.min_score),
+        {"min-face", 0, CLI_OPT_FLOAT, &a.min_face, "PX",
          "smallest face to look for, pixels wide (default 40; 0: one pass over the whole photo)"},
-        CLI_OPT_THREADS_ROW(threads),
-        {"no-landmarks", 0, CLI_OPT_FLAG, &no_landmarks, NULL, "detection only (no face mesh)"},
-        {"draw", 0, CLI_OPT_STRING, &draw_text, "LIST",
+        CLI_OPT_THREADS_ROW(a.threads),
+        {"no-landmarks", 0, CLI_OPT_FLAG, &a.no_landmarks, NULL, "detection only (no face mesh)"},
+        {"draw", 0, CLI_OPT_STRING, &a.draw_text, "LIST",
          "what -o shows, comma-separated from box, keypoints, roi (the crop the face mesh first sees), "
          "landmarks, mesh (the canonical mesh's triangles on the landmarks) (default box,keypoints,landmarks)"},
-        {"zoom", 0, CLI_OPT_INT, &zoom_size, "N",
+        {"zoom", 0, CLI_OPT_INT, &a.zoom_size, "N",
          "draw only the first face's landmark crop, enlarged to N x N pixels (default 0: the whole photo)"},
-        CLI_OPT_JSON_ROW(json),
+        CLI_OPT_JSON_ROW(a.json),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -220,15 +279,11 @@ int cmd_detect(int argc, char **argv)
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
     const char *path = pos[0];
     free(pos);
-    int draw;
-    if (!parse_draw(draw_text, &draw))
-        return cli_usage_error(&spec, "--draw wants a list of box, keypoints, roi, landmarks, mesh; got '%s'", draw_text);
-    if ((code = cli_opts_common(&spec, threads, min_score))) return code;
-    if (!(min_face >= 0.0f && min_face <= (float)HD_IMAGE_MAX_SIDE))
-        return cli_usage_error(&spec, "--min-face must be in [0, %d] pixels, got %g", HD_IMAGE_MAX_SIDE, (double)min_face);
-    if (zoom_size < 0 || zoom_size > 4096) return cli_usage_error(&spec, "--zoom must be in 0..4096, got %d", zoom_size);
-    if (no_landmarks && landmarks_path) return cli_usage_error(&spec, "--landmarks needs the face mesh (drop --no-landmarks)");
-    if (zoom_size && !out) return cli_usage_error(&spec, "--zoom goes with -o");
+    if ((code = detect_check(&spec, &a))) return code;
+    const char *out = a.out, *landmarks_path = a.landmarks_path;
+    const float min_score = a.min_score;
+    const int json = a.json, draw = a.draw;
+    int zoom_size = a.zoom_size;
 
     hd_image photo = {0};
     hd_face_detector *det = NULL;
@@ -242,7 +297,7 @@ int cmd_detect(int argc, char **argv)
     int count = 0, rc = CLI_EXIT_FAIL, reported = 0;
     if (hd_image_read_as(path, 3, &photo) != HD_OK || hd_face_detector_load(NULL, &det) != HD_OK) goto done;
     double t0 = hd_seconds();
-    if (hd_face_detector_find(det, &photo, min_score, min_face, &faces, &count) != HD_OK) goto done;
+    if (hd_face_detector_find(det, &photo, min_score, a.min_face, &faces, &count) != HD_OK) goto done;
     double t_detect = hd_seconds() - t0;
     say(!json, "%s: %dx%d, %d face(s) (detection %.1f ms)\n", path, photo.width, photo.height, count, 1e3 * t_detect);
     if (count == 0) {
@@ -250,7 +305,7 @@ int cmd_detect(int argc, char **argv)
                zoom_size && out ? ": nothing to zoom to, drawing the whole photo" : "");
         zoom_size = 0;
     }
-    if (!no_landmarks && count > 0) {
+    if (!a.no_landmarks && count > 0) {
         lm = hd_calloc((size_t)count, sizeof *lm);
         presence = hd_calloc((size_t)count, sizeof *presence);
         rois = hd_calloc((size_t)count, sizeof *rois);
@@ -274,36 +329,8 @@ int cmd_detect(int argc, char **argv)
                                           count) != HD_OK)
         goto done;
     if (out) {
-        if (zoom_size > 0) {
-            /* The axis-aligned square around the first face's landmark crop, enlarged. */
-            const hd_face_roi *r = rois ? &rois[0] : NULL;
-            hd_face_roi from_box;
-            if (!r) {
-                hd_face_roi_from_box(&faces[0], &from_box);
-                r = &from_box;
-            }
-            float side = r->size * (fabsf(cosf(r->angle)) + fabsf(sinf(r->angle)));
-            cv.zoom = (float)zoom_size / side;
-            cv.origin[0] = r->cx - 0.5f * side;
-            cv.origin[1] = r->cy - 0.5f * side;
-            if (hd_image_alloc(&cv.img, zoom_size, zoom_size, 3) != HD_OK) goto done;
-            float *rgb = hd_malloc((size_t)zoom_size * zoom_size * 3 * sizeof *rgb);
-            if (!rgb) goto done;
-            float ax[2] = {1.0f / cv.zoom, 0.0f}, ay[2] = {0.0f, 1.0f / cv.zoom};
-            hd_face_sample(&photo, cv.origin, ax, ay, zoom_size, zoom_size, 0.0f, 1.0f, HD_BORDER_ZERO, rgb);
-            size_t plane = (size_t)zoom_size * zoom_size;
-            for (size_t p = 0; p < plane; p++)
-                for (int c = 0; c < 3; c++) cv.img.data[c * plane + p] = rgb[3 * p + c];
-            free(rgb);
-        } else {
-            cv.zoom = 1.0f;
-            if (hd_image_alloc(&cv.img, photo.width, photo.height, 3) != HD_OK) goto done;
-            memcpy(cv.img.data, photo.data, (size_t)photo.width * photo.height * 3 * sizeof(float));
-        }
+        if (canvas_of(&photo, faces, rois, zoom_size, &cv) != HD_OK) goto done;
         if ((draw & DRAW_MESH) && lm && hd_mesh_load_canonical(&canonical) != HD_OK) goto done;
-        cv.alpha = 1.0f;
-        int side = cv.img.width > cv.img.height ? cv.img.width : cv.img.height;
-        cv.thick = side / 400 > 1 ? side / 400 : 1;
         for (int i = count - 1; i >= 0; i--) {
             hd_face_roi box_roi;
             hd_face_roi_from_box(&faces[i], &box_roi);

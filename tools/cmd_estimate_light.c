@@ -144,8 +144,8 @@ int cmd_estimate_light(int argc, char **argv)
         goto done;
     }
     cli_summary sum;
-    rc = cli_batch_run("estimate-light", "estimated the light of", &in, out, single, quiet || json, estimate_one, &run,
-                       &sum);
+    rc = cli_batch_run("estimate-light", "estimated the light of", CLI_NO_FACE_ALIGNED, &in, out, single, quiet || json,
+                       estimate_one, &run, &sum);
     if (json) rc = cli_json_print_run("estimate-light", &run.results, &in, &sum, out, rc);
 done:
     if (code) rc = code;

@@ -208,7 +208,7 @@ int cmd_relight(int argc, char **argv)
         rc = cli_report("relight");
         goto done;
     }
-    rc = cli_batch_run("relight", "relit", &in, a.out, single, a.quiet, relight_one, &run, NULL);
+    rc = cli_batch_run("relight", "relit", CLI_NO_FACE_ALIGNED, &in, a.out, single, a.quiet, relight_one, &run, NULL);
 done:
     if (code) rc = code;
     if (run.apply.model) hd_model_free(run.apply.model);

@@ -117,7 +117,7 @@ int cmd_transfer(int argc, char **argv)
         fprintf(stderr, "hdnet transfer: note: %s has %d faces; the light is that of face 0 (best score)\n", ref_path,
                 nfaces);
     if (photos) cli_note_mask("transfer", 1, mask_path, NULL);
-    rc = cli_batch_run("transfer", "relit", &in, out, single, quiet, transfer_one, &run, NULL);
+    rc = cli_batch_run("transfer", "relit", CLI_NO_FACE_ALIGNED, &in, out, single, quiet, transfer_one, &run, NULL);
 done:
     hd_image_free(&ref);
     hd_image_free(&ref_mask);

@@ -5,7 +5,8 @@
  * inside the mask; on a photo warped back through the landmark mesh, feathered from the face's
  * edge in photo pixels, so that outside the face the photo is untouched bit for bit. The old rule
  * (HD_RULE_PAPER) goes through relight.c and the Poisson blend instead. The hdnet commands are
- * options and files around these calls. */
+ * options and files around these calls; the thin public calls of hdnet.h (calls.c) are requests to
+ * them. Of src/apply's other files it uses the rule's pieces and photo.c's faces, never calls.c. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,6 +41,17 @@ static hd_status copy_image(const hd_image *src, hd_image *dst)
 static const char *operation(const hd_apply_request *q)
 {
     return q && q->operation ? q->operation : "relight";
+}
+
+/* The pieces of the rule (rule.c, forehead.c, head.c, relight.c) begin their reasons with
+ * "relight:"; a public call's failure names the operation op it was asked for instead. */
+static hd_status named(const char *op, hd_status st)
+{
+    static const char piece[] = "relight: ";
+    if (st != HD_OK && st != HD_ERR_NOMEM && strcmp(op, "relight") != 0 &&
+        strncmp(hd_error(), piece, sizeof piece - 1) == 0)
+        return hd_fail(st, "%s: %s", op, hd_error() + sizeof piece - 1);
+    return st;
 }
 
 static hd_status check_request(const hd_apply_request *q, const hd_image *picture)
@@ -180,7 +192,7 @@ hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition
     free(feather);
     if (st != HD_OK) {
         hd_apply_result_free(r);
-        return st;
+        return named(operation(q), st);
     }
     r->nfaces = 1;
     return HD_OK;
@@ -240,9 +252,9 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
                         hd_brightness brightness, hd_source_light source, hd_image *photo)
 {
+    const char *op = target ? "relight" : "delight";
     if (!f || !d || !photo || !photo->data || photo->channels != 3)
-        return hd_fail(HD_ERR_ARG, "%s: a face, its decomposition and a 3-channel photo are needed",
-                       target ? "relight" : "delight");
+        return hd_fail(HD_ERR_ARG, "%s: a face, its decomposition and a 3-channel photo are needed", op);
     const size_t P = (size_t)photo->width * (size_t)photo->height;
     float *feather = hd_malloc((P ? P : 1) * sizeof(float));
     if (!feather) return HD_ERR_NOMEM;
@@ -257,7 +269,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb);
     hd_head_free(&head);
     free(feather);
-    return st;
+    return named(op, st);
 }
 
 hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_apply_request *q,
@@ -303,7 +315,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
     free(feather);
     if (st != HD_OK) {
         hd_apply_result_free(r);
-        return st;
+        return named(operation(q), st);
     }
     return HD_OK;
 }

@@ -133,6 +133,24 @@ hd_status hd_head_apply(const hd_head *h, const float source[HD_SH_COEFFS], cons
  * empty head): for a client that redoes hd_head_apply from h's maps (`hdnet serve`'s page). */
 float hd_head_blur(const hd_head *h);
 
+/* The paper's relighting (relight.c, docs/usage.md), kept to measure against. The final albedo is
+ * the input over the predicted shading, per colour channel: A_final = clamp(I / max(S,
+ * HD_SHADING_FLOOR), 0, 1); the relit face is A_final * max(s(N, l_target), 0), clamped to [0, 1].
+ * The image may be of any size: the decomposition's shading and normals (at the model size) are
+ * resized to it (normals renormalised). A mask is one channel of any size (resized likewise) or
+ * NULL for all ones; the output is m * relit + (1 - m) * I, so masked-out pixels keep the input. */
+#define HD_SHADING_FLOOR 1e-3f
+/* A_final at the image's size (3 channels); image is 3 channels. */
+hd_status hd_relight_albedo(const hd_image *image, const hd_decomposition *d, hd_image *albedo);
+/* Relights image (decomposed as d) under light; out is allocated at the image's size. */
+hd_status hd_relight(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
+                     const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
+/* The albedo under flat light (s = 1): m * A_final + (1 - m) * I. No brightness matching. */
+hd_status hd_delight(const hd_image *image, const hd_decomposition *d, const hd_image *mask, hd_image *out);
+/* Relights image under the light estimated for a reference face (ref->light). */
+hd_status hd_transfer(const hd_image *image, const hd_decomposition *d, const hd_image *mask,
+                      const hd_decomposition *ref, hd_brightness brightness, hd_image *out);
+
 /* The paper's rule on a texture (relight.c): light NULL is flat light without brightness matching. */
 hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, const hd_image *mask, const float *light,
                            hd_brightness brightness, hd_image *out);

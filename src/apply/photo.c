@@ -1,6 +1,8 @@
 /* photo.c: photos and aligned textures (docs/usage.md, "Photos and aligned textures"): which an
  * input is (by its companions), the texture size faces are unwarped at, every face of a photo
- * aligned, and the light of a photo's best face. What is done to the faces is apply.c's. */
+ * aligned (hd_photo_faces, which apply.c and calls.c take), and a photo's decomposition as maps at
+ * its full size (hd_decompose_photo_maps). It calls no other file of src/apply: what is done to
+ * the faces is apply.c's. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,25 +38,6 @@ hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_im
     hd_status st = hd_aligner_run(aligner, photo, hd_photo_texture_size(model), faces, count);
     if (st == HD_OK && *count == 0) st = hd_fail(HD_ERR_NOTFOUND, "no face found");
     return st;
-}
-
-hd_status hd_estimate_face_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
-                                       hd_source_light source, float light[HD_SH_COEFFS], int *nfaces)
-{
-    if (nfaces) *nfaces = 0;
-    hd_aligned_face *faces = NULL;
-    int n = 0;
-    hd_status st = hd_photo_faces(aligner, model, photo, &faces, &n);
-    if (st == HD_OK) st = hd_estimate_face_light(model, &faces[0].texture, &faces[0].mask, source, light);
-    hd_aligned_faces_free(faces, n);
-    if (st == HD_OK && nfaces) *nfaces = n;
-    return st;
-}
-
-hd_status hd_estimate_light_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo,
-                                  float light[HD_SH_COEFFS], int *nfaces)
-{
-    return hd_estimate_face_light_photo(model, aligner, photo, HD_SOURCE_FIT, light, nfaces);
 }
 
 void hd_photo_maps_free(hd_photo_maps *m)

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+#include "eval/metrics.h"
 
 static double dist2(const float *a, const float *b, int dim)
 {

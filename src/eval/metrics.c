@@ -10,6 +10,7 @@
 #include "core/core.h"
 #include "io/dataset.h"
 #include "eval/eval_json.h"
+#include "eval/metrics.h"
 
 static const double THRESHOLDS[HD_EVAL_THRESHOLDS] = {20.0, 25.0, 30.0};
 

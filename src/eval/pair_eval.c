@@ -11,6 +11,7 @@
 #include "core/core.h"
 #include "io/dataset.h"
 #include "eval/eval_json.h"
+#include "eval/photo_metrics.h"
 #include "apply/apply.h"
 
 static const char *const ROW_NAMES[HD_PAIR_ROWS] = {"input unchanged", "exact decomposition", "exact ratio (true N, l)",
@@ -153,7 +154,7 @@ static hd_status score_pair(hd_model *model, const side *a, const side *b, const
     const size_t P = (size_t)a->input.width * a->input.height;
     hd_light_rgb target;
     hd_light_rgb_from_grey(b->light, &target);
-    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_LNET, how->guard, NULL};
+    hd_apply_request q = {&target, 1, 0, 0, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_LNET, how->guard, "eval"};
     hd_apply_result r;
     if (st == HD_OK) add_errors(&rows[HD_PAIR_INPUT], &a->input, &b->input, m.data);
     /* exact decomposition: A_i s(N_i, l_j) */

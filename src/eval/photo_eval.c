@@ -12,6 +12,7 @@
 #include "io/dataset.h"
 #include "eval/eval_json.h"
 #include "eval/photo_coverage.h"
+#include "eval/photo_metrics.h"
 #include "apply/apply.h"
 #include "mesh/mesh.h"
 
@@ -132,7 +133,7 @@ static hd_status score_photo(hd_model *model, hd_aligner *aligner, const hd_samp
         hd_light_preset(k, l);
         hd_light_rgb_from_grey(l, &presets[k]);
     }
-    hd_apply_request q = {presets, HD_LIGHT_PRESETS, 0, 1, how->rule, HD_BRIGHTNESS_KEEP, how->source, how->guard, NULL};
+    hd_apply_request q = {presets, HD_LIGHT_PRESETS, 0, 1, how->rule, HD_BRIGHTNESS_KEEP, how->source, how->guard, "eval"};
     hd_apply_result r;
     st = hd_apply_photo(model, aligner, &photo, &q, &r);
     if (st != HD_OK) {

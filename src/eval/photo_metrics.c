@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+#include "eval/photo_metrics.h"
 
 /* Chroma is undefined on black: a pixel counts when both r + g + b exceed this. */
 #define CHROMA_MIN_SUM 0.06

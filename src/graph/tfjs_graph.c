@@ -268,6 +268,99 @@ static int parse_shape(const cJSON *shape, int *ndim, int dims[HD_TFJS_MAX_DIMS]
     return 1;
 }
 
+/* One weight of the manifest (entry e, the index-th, in group gi) into w, with the size of one of
+ * its stored elements in *elem; the shape's element count is checked against MAX_ELEMENTS. */
+static hd_status weight_entry(const cJSON *e, const char *json_path, int index, int gi, wentry *w, size_t *elem_size)
+{
+    const cJSON *name = cJSON_GetObjectItemCaseSensitive(e, "name");
+    const cJSON *dtype = cJSON_GetObjectItemCaseSensitive(e, "dtype");
+    const cJSON *quant = cJSON_GetObjectItemCaseSensitive(e, "quantization");
+    if (!cJSON_IsString(name) || !cJSON_IsString(dtype))
+        return hd_fail(HD_ERR_FORMAT, "%s: weight %d of the manifest has no name or dtype", json_path, index);
+    w->name = name->valuestring;
+    w->group = gi;
+    if (!parse_shape(cJSON_GetObjectItemCaseSensitive(e, "shape"), &w->ndim, w->dims, &w->count))
+        return hd_fail(HD_ERR_FORMAT, "%s: weight '%s': shape missing, of rank over %d or too large",
+                       json_path, w->name, HD_TFJS_MAX_DIMS);
+    size_t elem;
+    if (quant) {
+        const cJSON *qd = cJSON_GetObjectItemCaseSensitive(quant, "dtype");
+        if (strcmp(dtype->valuestring, "float32") != 0 || !cJSON_IsString(qd))
+            return hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported quantization", json_path, w->name);
+        if (strcmp(qd->valuestring, "float16") == 0) {
+            w->type = W_F16;
+            elem = 2;
+        } else if (strcmp(qd->valuestring, "uint8") == 0 || strcmp(qd->valuestring, "uint16") == 0) {
+            const cJSON *qmin = cJSON_GetObjectItemCaseSensitive(quant, "min");
+            const cJSON *qscale = cJSON_GetObjectItemCaseSensitive(quant, "scale");
+            if (!cJSON_IsNumber(qmin) || !cJSON_IsNumber(qscale))
+                return hd_fail(HD_ERR_FORMAT, "%s: weight '%s': quantization without min and scale", json_path, w->name);
+            w->type = qd->valuestring[4] == '8' ? W_U8 : W_U16;
+            elem = w->type == W_U8 ? 1 : 2;
+            w->qmin = (float)qmin->valuedouble;
+            w->qscale = (float)qscale->valuedouble;
+        } else {
+            return hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported quantization dtype '%s'", json_path,
+                           w->name, qd->valuestring);
+        }
+    } else if (strcmp(dtype->valuestring, "float32") == 0) {
+        w->type = W_F32;
+        elem = 4;
+    } else if (strcmp(dtype->valuestring, "int32") == 0) {
+        w->type = W_I32;
+        elem = 4;
+    } else {
+        return hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported dtype '%s'", json_path, w->name,
+                       dtype->valuestring);
+    }
+    *elem_size = elem;
+    return HD_OK;
+}
+
+/* The shards of manifest group g (paths relative to dir), concatenated into *data (malloc'ed,
+ * `bytes` long): their total must be exactly what the group's weights need. */
+static hd_status read_shards(const cJSON *g, const char *dir, const char *json_path, size_t bytes,
+                             unsigned char **data)
+{
+    *data = NULL;
+    const cJSON *paths = cJSON_GetObjectItemCaseSensitive(g, "paths"), *p;
+    if (!cJSON_IsArray(paths)) return hd_fail(HD_ERR_FORMAT, "%s: a weightsManifest entry has no paths array", json_path);
+    unsigned char *buf = hd_malloc(bytes);
+    if (!buf) return HD_ERR_NOMEM;
+    hd_status st = HD_OK;
+    size_t have = 0;
+    cJSON_ArrayForEach(p, paths) {
+        if (!cJSON_IsString(p) || strstr(p->valuestring, "..") || p->valuestring[0] == '/') {
+            st = hd_fail(HD_ERR_FORMAT, "%s: a shard path is not a plain relative file name", json_path);
+            break;
+        }
+        char *shard_path = hd_path_join(dir, p->valuestring), *got = NULL;
+        size_t n;
+        st = shard_path ? hd_read_file(shard_path, MAX_WEIGHT_BYTES, &got, &n) : HD_ERR_NOMEM;
+        if (st == HD_OK && n > bytes - have)
+            st = hd_fail(HD_ERR_FORMAT, "%s: longer than the manifest says (the weights of %s need %zu bytes in all)",
+                         shard_path, json_path, bytes);
+        if (st == HD_OK) {
+            memcpy(buf + have, got, n);
+            have += n;
+            if (have < bytes && !cJSON_IsString(p->next))
+                st = hd_fail(HD_ERR_FORMAT, "%s: truncated: %zu bytes, the weights of %s need %zu", shard_path, have,
+                             json_path, bytes);
+        }
+        free(got);
+        free(shard_path);
+        if (st != HD_OK) break;
+    }
+    if (st == HD_OK && have != bytes)
+        st = hd_fail(HD_ERR_FORMAT, "%s: the shards hold %zu bytes, the weights need %zu", json_path, have, bytes);
+    if (st != HD_OK) {
+        free(buf);
+        return st;
+    }
+    *data = buf;
+    return HD_OK;
+}
+
 /* Reads the manifest and its shards; every size is checked before anything is allocated from it. */
 static hd_status manifest_load(manifest *m, const cJSON *root, const char *json_path)
 {
@@ -309,57 +402,8 @@ static hd_status manifest_load(manifest *m, const cJSON *root, const char *json_
         const cJSON *e;
         cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(g, "weights")) {
             wentry *w = &m->w[m->nw];
-            const cJSON *name = cJSON_GetObjectItemCaseSensitive(e, "name");
-            const cJSON *dtype = cJSON_GetObjectItemCaseSensitive(e, "dtype");
-            const cJSON *quant = cJSON_GetObjectItemCaseSensitive(e, "quantization");
-            if (!cJSON_IsString(name) || !cJSON_IsString(dtype)) {
-                st = hd_fail(HD_ERR_FORMAT, "%s: weight %d of the manifest has no name or dtype", json_path, m->nw);
-                goto done;
-            }
-            w->name = name->valuestring;
-            w->group = gi;
-            if (!parse_shape(cJSON_GetObjectItemCaseSensitive(e, "shape"), &w->ndim, w->dims, &w->count)) {
-                st = hd_fail(HD_ERR_FORMAT, "%s: weight '%s': shape missing, of rank over %d or too large",
-                             json_path, w->name, HD_TFJS_MAX_DIMS);
-                goto done;
-            }
-            size_t elem;
-            if (quant) {
-                const cJSON *qd = cJSON_GetObjectItemCaseSensitive(quant, "dtype");
-                if (strcmp(dtype->valuestring, "float32") != 0 || !cJSON_IsString(qd)) {
-                    st = hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported quantization", json_path, w->name);
-                    goto done;
-                }
-                if (strcmp(qd->valuestring, "float16") == 0) {
-                    w->type = W_F16;
-                    elem = 2;
-                } else if (strcmp(qd->valuestring, "uint8") == 0 || strcmp(qd->valuestring, "uint16") == 0) {
-                    const cJSON *qmin = cJSON_GetObjectItemCaseSensitive(quant, "min");
-                    const cJSON *qscale = cJSON_GetObjectItemCaseSensitive(quant, "scale");
-                    if (!cJSON_IsNumber(qmin) || !cJSON_IsNumber(qscale)) {
-                        st = hd_fail(HD_ERR_FORMAT, "%s: weight '%s': quantization without min and scale", json_path, w->name);
-                        goto done;
-                    }
-                    w->type = qd->valuestring[4] == '8' ? W_U8 : W_U16;
-                    elem = w->type == W_U8 ? 1 : 2;
-                    w->qmin = (float)qmin->valuedouble;
-                    w->qscale = (float)qscale->valuedouble;
-                } else {
-                    st = hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported quantization dtype '%s'", json_path,
-                                 w->name, qd->valuestring);
-                    goto done;
-                }
-            } else if (strcmp(dtype->valuestring, "float32") == 0) {
-                w->type = W_F32;
-                elem = 4;
-            } else if (strcmp(dtype->valuestring, "int32") == 0) {
-                w->type = W_I32;
-                elem = 4;
-            } else {
-                st = hd_fail(HD_ERR_FORMAT, "%s: weight '%s': unsupported dtype '%s'", json_path, w->name,
-                             dtype->valuestring);
-                goto done;
-            }
+            size_t elem = 0;
+            if ((st = weight_entry(e, json_path, m->nw, gi, w, &elem)) != HD_OK) goto done;
             if (!hd_mul_size(w->count, elem, &w->bytes) || w->bytes > MAX_WEIGHT_BYTES - offset) {
                 st = hd_fail(HD_ERR_RANGE, "%s: weights add up to more than %zu bytes", json_path, MAX_WEIGHT_BYTES);
                 goto done;
@@ -373,58 +417,8 @@ static hd_status manifest_load(manifest *m, const cJSON *root, const char *json_
             goto done;
         }
         total += offset;
-        /* The group's shards, concatenated; their total must be exactly what the weights need. */
-        const cJSON *paths = cJSON_GetObjectItemCaseSensitive(g, "paths"), *p;
-        if (!cJSON_IsArray(paths)) {
-            st = hd_fail(HD_ERR_FORMAT, "%s: a weightsManifest entry has no paths array", json_path);
-            goto done;
-        }
-        unsigned char *data = hd_malloc(offset);
-        if (!data) {
-            st = HD_ERR_NOMEM;
-            goto done;
-        }
-        m->group_data[gi] = data;
+        if ((st = read_shards(g, dir, json_path, offset, &m->group_data[gi])) != HD_OK) goto done;
         m->group_size[gi] = offset;
-        size_t have = 0;
-        cJSON_ArrayForEach(p, paths) {
-            if (!cJSON_IsString(p) || strstr(p->valuestring, "..") || p->valuestring[0] == '/') {
-                st = hd_fail(HD_ERR_FORMAT, "%s: a shard path is not a plain relative file name", json_path);
-                goto done;
-            }
-            char *shard_path = hd_path_join(dir, p->valuestring), *bytes;
-            size_t n;
-            if (!shard_path) {
-                st = HD_ERR_NOMEM;
-                goto done;
-            }
-            st = hd_read_file(shard_path, MAX_WEIGHT_BYTES, &bytes, &n);
-            if (st != HD_OK) {
-                free(shard_path);
-                goto done;
-            }
-            if (n > offset - have) {
-                st = hd_fail(HD_ERR_FORMAT, "%s: longer than the manifest says (the weights of %s need %zu bytes in all)",
-                             shard_path, json_path, offset);
-                free(bytes);
-                free(shard_path);
-                goto done;
-            }
-            memcpy(data + have, bytes, n);
-            have += n;
-            free(bytes);
-            if (have < offset && !cJSON_IsString(p->next)) {
-                st = hd_fail(HD_ERR_FORMAT, "%s: truncated: %zu bytes, the weights of %s need %zu", shard_path, have,
-                             json_path, offset);
-                free(shard_path);
-                goto done;
-            }
-            free(shard_path);
-        }
-        if (have != offset) {
-            st = hd_fail(HD_ERR_FORMAT, "%s: the shards hold %zu bytes, the weights need %zu", json_path, have, offset);
-            goto done;
-        }
         gi++;
     }
 done:
@@ -592,6 +586,131 @@ static int broadcast_shape(const tg_value *a, const tg_value *b, tg_value *out)
     return set_shape(out, nd, dims);
 }
 
+/* shape_node of a Conv2D or DepthwiseConv2D (x its input): the fused ops (a bias, then Relu, Relu6,
+ * Prelu or LeakyRelu), the filter, bias and alpha constants checked against the input, the window
+ * and the im2col scratch it needs. */
+static hd_status shape_conv(hd_tfjs_graph *g, tg_node *n, const cJSON *js, const tg_value *x)
+{
+    char ops[4][32];
+    int nops = 0;
+    const cJSON *fo = cJSON_GetObjectItemCaseSensitive(node_attr(js, "fused_ops"), "list");
+    const cJSON *s, *sl = cJSON_GetObjectItemCaseSensitive(fo, "s");
+    if (sl) {
+        cJSON_ArrayForEach(s, sl) {
+            if (nops == 4 || !cJSON_IsString(s) || !base64_decode(s->valuestring, ops[nops], sizeof ops[0]))
+                return NODE_FAIL(g, n, "malformed fused_ops");
+            nops++;
+        }
+    }
+    int k = 0;
+    n->alpha_in = -1;
+    n->act = ACT_NONE;
+    if (k < nops && strcmp(ops[k], "BiasAdd") == 0) {
+        n->has_bias = 1;
+        k++;
+    }
+    if (k < nops) {
+        if (strcmp(ops[k], "Relu") == 0) n->act = ACT_RELU;
+        else if (strcmp(ops[k], "Relu6") == 0) n->act = ACT_RELU6;
+        else if (strcmp(ops[k], "Prelu") == 0) n->act = ACT_PRELU;
+        else if (strcmp(ops[k], "LeakyRelu") == 0) {
+            n->act = ACT_LEAKY;
+            const cJSON *f = cJSON_GetObjectItemCaseSensitive(node_attr(js, "leakyrelu_alpha"), "f");
+            n->leaky_alpha = cJSON_IsNumber(f) ? (float)f->valuedouble : 0.2f;
+        } else return NODE_FAIL(g, n, "fused op '%s' is not supported", ops[k]);
+        k++;
+    }
+    if (k < nops) return NODE_FAIL(g, n, "fused op '%s' is not supported here", ops[k]);
+    int want = 2 + n->has_bias + (n->act == ACT_PRELU);
+    if (n->nin != want) return NODE_FAIL(g, n, "expects %d inputs for its fused ops, has %d", want, n->nin);
+    if (n->act == ACT_PRELU) n->alpha_in = 2 + n->has_bias;
+    if (!is_nhwc1(x)) return NODE_FAIL(g, n, "input must be a float tensor (1, H, W, C)");
+    const tg_node *fn = &g->nodes[n->in[1]];
+    const tg_value *f = &fn->out;
+    if (fn->kind != OP_CONST || f->ndim != 4)
+        return NODE_FAIL(g, n, "filter '%s' must be a constant of rank 4", fn->name);
+    if (f->dims[2] != x->dims[3])
+        return NODE_FAIL(g, n, "filter '%s' has %d input channels, the input has %d", fn->name, f->dims[2], x->dims[3]);
+    size_t oc;
+    if (!hd_mul_size((size_t)f->dims[2], (size_t)f->dims[3], &oc) || oc > INT_MAX)
+        return NODE_FAIL(g, n, "too many output channels");
+    if (n->kind == OP_CONV2D) oc = (size_t)f->dims[3];
+    for (int i = 2; i < n->nin; i++) {
+        const tg_node *p = &g->nodes[n->in[i]];
+        if (p->kind != OP_CONST || p->out.size != oc)
+            return NODE_FAIL(g, n, "%s '%s' must be a constant of %zu values, has %zu",
+                             i == n->alpha_in ? "PReLU alpha" : "bias", p->name, oc, p->out.size);
+    }
+    if (f->dims[0] < 1 || f->dims[1] < 1 || oc < 1) return NODE_FAIL(g, n, "empty filter");
+    hd_status st = setup_window(g, n, js, x, f->dims[0], f->dims[1], (int)oc);
+    if (st != HD_OK) return st;
+    if (n->kind == OP_CONV2D) {
+        size_t kk, col;
+        if (!hd_mul3_size((size_t)f->dims[0], (size_t)f->dims[1], (size_t)f->dims[2], &kk) || kk > INT_MAX ||
+            !hd_mul3_size((size_t)n->out.dims[1], (size_t)n->out.dims[2], kk, &col) || col > MAX_ELEMENTS)
+            return NODE_FAIL(g, n, "convolution too large");
+        if (col > g->col_size) g->col_size = col;
+    }
+    return HD_OK;
+}
+
+/* shape_node of a Pad or PadV2: the paddings (and the pad value) constants checked, the padded shape. */
+static hd_status shape_pad(hd_tfjs_graph *g, tg_node *n, const tg_value *x)
+{
+    int want = strcmp(n->op, "PadV2") == 0 ? 3 : 2;
+    if (n->nin != want) return NODE_FAIL(g, n, "expects %d inputs, has %d", want, n->nin);
+    const tg_node *pn = &g->nodes[n->in[1]];
+    if (pn->kind != OP_CONST || pn->out.ndim != 2 || pn->out.dims[0] != x->ndim || pn->out.dims[1] != 2)
+        return NODE_FAIL(g, n, "paddings '%s' must be a constant int32 (%d, 2)", pn->name, x->ndim);
+    if (want == 3) {
+        const tg_node *cv = &g->nodes[n->in[2]];
+        if (cv->kind != OP_CONST || cv->out.size != 1) return NODE_FAIL(g, n, "the pad value must be a scalar constant");
+        n->pad_value = cv->out.data[0];
+    }
+    int dims[HD_TFJS_MAX_DIMS];
+    for (int i = 0; i < x->ndim; i++) {
+        int32_t b = pn->out.ints[2 * i], a = pn->out.ints[2 * i + 1];
+        if (b < 0 || a < 0 || (long long)x->dims[i] + b + a > INT_MAX)
+            return NODE_FAIL(g, n, "padding (%d, %d) out of range", (int)b, (int)a);
+        n->pads[i][0] = b;
+        n->pads[i][1] = a;
+        dims[i] = x->dims[i] + b + a;
+    }
+    if (!set_shape(&n->out, x->ndim, dims)) return NODE_FAIL(g, n, "output too large");
+    return HD_OK;
+}
+
+/* shape_node of a Reshape: the target shape constant, at most one -1 inferred from the size. */
+static hd_status shape_reshape(hd_tfjs_graph *g, tg_node *n, const tg_value *x)
+{
+    if (n->nin != 2) return NODE_FAIL(g, n, "expects 2 inputs, has %d", n->nin);
+    const tg_node *sn = &g->nodes[n->in[1]];
+    if (sn->kind != OP_CONST || sn->out.ndim != 1 || sn->out.dims[0] > HD_TFJS_MAX_DIMS)
+        return NODE_FAIL(g, n, "shape '%s' must be a constant int32 vector of at most %d values", sn->name,
+                         HD_TFJS_MAX_DIMS);
+    int nd = sn->out.dims[0], dims[HD_TFJS_MAX_DIMS], infer = -1;
+    size_t known = 1;
+    for (int i = 0; i < nd; i++) {
+        int32_t d = sn->out.ints[i];
+        if (d == -1 && infer < 0) {
+            infer = i;
+            dims[i] = 1;
+        } else if (d < 0) return NODE_FAIL(g, n, "bad target shape");
+        else {
+            dims[i] = d;
+            if (!hd_mul_size(known, (size_t)d, &known)) return NODE_FAIL(g, n, "bad target shape");
+        }
+    }
+    if (infer >= 0) {
+        if (known == 0 || x->size % known || x->size / known > INT_MAX)
+            return NODE_FAIL(g, n, "cannot reshape %zu values to the target shape", x->size);
+        dims[infer] = (int)(x->size / known);
+    }
+    if (!set_shape(&n->out, nd, dims) || n->out.size != x->size)
+        return NODE_FAIL(g, n, "cannot reshape %zu values to the target shape", x->size);
+    return HD_OK;
+}
+
 /* Infers node n's output shape from its (already shaped) inputs and checks its attributes. */
 static hd_status shape_node(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
 {
@@ -623,69 +742,8 @@ static hd_status shape_node(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
             return NODE_FAIL(g, n, "input shapes do not broadcast");
         return HD_OK;
     case OP_CONV2D:
-    case OP_DEPTHWISE: {
-        char ops[4][32];
-        int nops = 0;
-        const cJSON *fo = cJSON_GetObjectItemCaseSensitive(node_attr(js, "fused_ops"), "list");
-        const cJSON *s, *sl = cJSON_GetObjectItemCaseSensitive(fo, "s");
-        if (sl) {
-            cJSON_ArrayForEach(s, sl) {
-                if (nops == 4 || !cJSON_IsString(s) || !base64_decode(s->valuestring, ops[nops], sizeof ops[0]))
-                    return NODE_FAIL(g, n, "malformed fused_ops");
-                nops++;
-            }
-        }
-        int k = 0;
-        n->alpha_in = -1;
-        n->act = ACT_NONE;
-        if (k < nops && strcmp(ops[k], "BiasAdd") == 0) {
-            n->has_bias = 1;
-            k++;
-        }
-        if (k < nops) {
-            if (strcmp(ops[k], "Relu") == 0) n->act = ACT_RELU;
-            else if (strcmp(ops[k], "Relu6") == 0) n->act = ACT_RELU6;
-            else if (strcmp(ops[k], "Prelu") == 0) n->act = ACT_PRELU;
-            else if (strcmp(ops[k], "LeakyRelu") == 0) {
-                n->act = ACT_LEAKY;
-                const cJSON *f = cJSON_GetObjectItemCaseSensitive(node_attr(js, "leakyrelu_alpha"), "f");
-                n->leaky_alpha = cJSON_IsNumber(f) ? (float)f->valuedouble : 0.2f;
-            } else return NODE_FAIL(g, n, "fused op '%s' is not supported", ops[k]);
-            k++;
-        }
-        if (k < nops) return NODE_FAIL(g, n, "fused op '%s' is not supported here", ops[k]);
-        int want = 2 + n->has_bias + (n->act == ACT_PRELU);
-        if (n->nin != want) return NODE_FAIL(g, n, "expects %d inputs for its fused ops, has %d", want, n->nin);
-        if (n->act == ACT_PRELU) n->alpha_in = 2 + n->has_bias;
-        if (!is_nhwc1(x)) return NODE_FAIL(g, n, "input must be a float tensor (1, H, W, C)");
-        const tg_node *fn = &g->nodes[n->in[1]];
-        const tg_value *f = &fn->out;
-        if (fn->kind != OP_CONST || f->ndim != 4)
-            return NODE_FAIL(g, n, "filter '%s' must be a constant of rank 4", fn->name);
-        if (f->dims[2] != x->dims[3])
-            return NODE_FAIL(g, n, "filter '%s' has %d input channels, the input has %d", fn->name, f->dims[2], x->dims[3]);
-        size_t oc;
-        if (!hd_mul_size((size_t)f->dims[2], (size_t)f->dims[3], &oc) || oc > INT_MAX)
-            return NODE_FAIL(g, n, "too many output channels");
-        if (n->kind == OP_CONV2D) oc = (size_t)f->dims[3];
-        for (int i = 2; i < n->nin; i++) {
-            const tg_node *p = &g->nodes[n->in[i]];
-            if (p->kind != OP_CONST || p->out.size != oc)
-                return NODE_FAIL(g, n, "%s '%s' must be a constant of %zu values, has %zu",
-                                 i == n->alpha_in ? "PReLU alpha" : "bias", p->name, oc, p->out.size);
-        }
-        if (f->dims[0] < 1 || f->dims[1] < 1 || oc < 1) return NODE_FAIL(g, n, "empty filter");
-        hd_status st = setup_window(g, n, js, x, f->dims[0], f->dims[1], (int)oc);
-        if (st != HD_OK) return st;
-        if (n->kind == OP_CONV2D) {
-            size_t kk, col;
-            if (!hd_mul3_size((size_t)f->dims[0], (size_t)f->dims[1], (size_t)f->dims[2], &kk) || kk > INT_MAX ||
-                !hd_mul3_size((size_t)n->out.dims[1], (size_t)n->out.dims[2], kk, &col) || col > MAX_ELEMENTS)
-                return NODE_FAIL(g, n, "convolution too large");
-            if (col > g->col_size) g->col_size = col;
-        }
-        return HD_OK;
-    }
+    case OP_DEPTHWISE:
+        return shape_conv(g, n, js, x);
     case OP_MAXPOOL:
     case OP_AVGPOOL: {
         long long ks[4];
@@ -696,57 +754,10 @@ static hd_status shape_node(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
             return NODE_FAIL(g, n, "ksize must be [1, kh, kw, 1]");
         return setup_window(g, n, js, x, (int)ks[1], (int)ks[2], x->dims[3]);
     }
-    case OP_PAD: {
-        int want = strcmp(n->op, "PadV2") == 0 ? 3 : 2;
-        if (n->nin != want) return NODE_FAIL(g, n, "expects %d inputs, has %d", want, n->nin);
-        const tg_node *pn = &g->nodes[n->in[1]];
-        if (pn->kind != OP_CONST || pn->out.ndim != 2 || pn->out.dims[0] != x->ndim || pn->out.dims[1] != 2)
-            return NODE_FAIL(g, n, "paddings '%s' must be a constant int32 (%d, 2)", pn->name, x->ndim);
-        if (want == 3) {
-            const tg_node *cv = &g->nodes[n->in[2]];
-            if (cv->kind != OP_CONST || cv->out.size != 1) return NODE_FAIL(g, n, "the pad value must be a scalar constant");
-            n->pad_value = cv->out.data[0];
-        }
-        int dims[HD_TFJS_MAX_DIMS];
-        for (int i = 0; i < x->ndim; i++) {
-            int32_t b = pn->out.ints[2 * i], a = pn->out.ints[2 * i + 1];
-            if (b < 0 || a < 0 || (long long)x->dims[i] + b + a > INT_MAX)
-                return NODE_FAIL(g, n, "padding (%d, %d) out of range", (int)b, (int)a);
-            n->pads[i][0] = b;
-            n->pads[i][1] = a;
-            dims[i] = x->dims[i] + b + a;
-        }
-        if (!set_shape(&n->out, x->ndim, dims)) return NODE_FAIL(g, n, "output too large");
-        return HD_OK;
-    }
-    case OP_RESHAPE: {
-        if (n->nin != 2) return NODE_FAIL(g, n, "expects 2 inputs, has %d", n->nin);
-        const tg_node *sn = &g->nodes[n->in[1]];
-        if (sn->kind != OP_CONST || sn->out.ndim != 1 || sn->out.dims[0] > HD_TFJS_MAX_DIMS)
-            return NODE_FAIL(g, n, "shape '%s' must be a constant int32 vector of at most %d values", sn->name,
-                             HD_TFJS_MAX_DIMS);
-        int nd = sn->out.dims[0], dims[HD_TFJS_MAX_DIMS], infer = -1;
-        size_t known = 1;
-        for (int i = 0; i < nd; i++) {
-            int32_t d = sn->out.ints[i];
-            if (d == -1 && infer < 0) {
-                infer = i;
-                dims[i] = 1;
-            } else if (d < 0) return NODE_FAIL(g, n, "bad target shape");
-            else {
-                dims[i] = d;
-                if (!hd_mul_size(known, (size_t)d, &known)) return NODE_FAIL(g, n, "bad target shape");
-            }
-        }
-        if (infer >= 0) {
-            if (known == 0 || x->size % known || x->size / known > INT_MAX)
-                return NODE_FAIL(g, n, "cannot reshape %zu values to the target shape", x->size);
-            dims[infer] = (int)(x->size / known);
-        }
-        if (!set_shape(&n->out, nd, dims) || n->out.size != x->size)
-            return NODE_FAIL(g, n, "cannot reshape %zu values to the target shape", x->size);
-        return HD_OK;
-    }
+    case OP_PAD:
+        return shape_pad(g, n, x);
+    case OP_RESHAPE:
+        return shape_reshape(g, n, x);
     }
     return NODE_FAIL(g, n, "unhandled op");
 }
@@ -875,6 +886,98 @@ done:
     return st;
 }
 
+/* build_graph's inputs of every node (js[i] its JSON, sorted the names for lookup): "name" or
+ * "name:0" (control inputs "^name" are ordering hints only and ignored); each counts in its
+ * node's indeg and its source's consumers. The one Placeholder becomes g->input. */
+static hd_status link_inputs(hd_tfjs_graph *g, const cJSON **js, const name_index *sorted, int *indeg)
+{
+    g->input = -1;
+    const int nn = g->nnodes;
+    for (int i = 0; i < nn; i++) {
+        tg_node *n = &g->nodes[i];
+        const cJSON *in;
+        cJSON_ArrayForEach(in, cJSON_GetObjectItemCaseSensitive(js[i], "input")) {
+            if (!cJSON_IsString(in)) return NODE_FAIL(g, n, "an input is not a string");
+            if (in->valuestring[0] == '^') continue;
+            char ref[512];
+            snprintf(ref, sizeof ref, "%s", in->valuestring);
+            char *colon = strrchr(ref, ':');
+            if (colon) {
+                if (strcmp(colon, ":0") != 0)
+                    return NODE_FAIL(g, n, "input '%s': only the first output of a node is supported", ref);
+                *colon = '\0';
+            }
+            int src = find_node(sorted, nn, ref);
+            if (src < 0) return NODE_FAIL(g, n, "input '%s' is not a node of the graph", ref);
+            if (n->nin == MAX_INPUTS) return NODE_FAIL(g, n, "more than %d inputs", MAX_INPUTS);
+            n->in[n->nin++] = src;
+            g->nodes[src].consumers++;
+            indeg[i]++;
+        }
+        if (n->kind == OP_PLACEHOLDER) {
+            if (g->input >= 0) return NODE_FAIL(g, n, "a second input (one Placeholder only)");
+            g->input = i;
+        }
+    }
+    if (g->input < 0) return hd_fail(HD_ERR_FORMAT, "%s: the graph has no Placeholder input", g->path);
+    return HD_OK;
+}
+
+/* build_graph's constants: every Const must be a manifest weight, of the shape its node declares;
+ * their values decoded into the graph's weight arenas (floats, and int32 apart). */
+static hd_status bind_constants(hd_tfjs_graph *g, const cJSON **js, const manifest *m)
+{
+    const int nn = g->nnodes;
+    size_t nfloats = 0, nints = 0;
+    for (int i = 0; i < nn; i++) {
+        tg_node *n = &g->nodes[i];
+        if (n->kind != OP_CONST) continue;
+        int w;
+        for (w = 0; w < m->nw; w++)
+            if (strcmp(m->w[w].name, n->name) == 0) break;
+        if (w == m->nw) return NODE_FAIL(g, n, "no weight of this name in the weightsManifest");
+        wentry *we = &m->w[w];
+        const cJSON *tshape = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(node_attr(js[i], "value"), "tensor"),
+                                             "tensorShape"),
+            "dim");
+        if (tshape) {
+            int k = 0, ok = cJSON_IsArray(tshape) && cJSON_GetArraySize(tshape) == we->ndim;
+            const cJSON *e;
+            cJSON_ArrayForEach(e, tshape) {
+                long long v;
+                if (!ok || !json_int(cJSON_GetObjectItemCaseSensitive(e, "size"), &v) || v != we->dims[k]) ok = 0;
+                k++;
+            }
+            if (!ok) return NODE_FAIL(g, n, "its declared shape differs from the manifest's");
+        }
+        set_shape(&n->out, we->ndim, we->dims);
+        size_t *count = we->type == W_I32 ? &nints : &nfloats;
+        *count += align_floats(we->count);
+    }
+    g->weight_floats = hd_malloc(nfloats * sizeof(float));
+    g->weight_ints = hd_malloc(nints * sizeof(int32_t));
+    if (!g->weight_floats || !g->weight_ints) return HD_ERR_NOMEM;
+    nfloats = nints = 0;
+    for (int i = 0; i < nn; i++) {
+        tg_node *n = &g->nodes[i];
+        if (n->kind != OP_CONST) continue;
+        int w;
+        for (w = 0; w < m->nw; w++)
+            if (strcmp(m->w[w].name, n->name) == 0) break;
+        wentry *we = &m->w[w];
+        if (we->type == W_I32) {
+            n->out.ints = g->weight_ints + nints;
+            nints += align_floats(we->count);
+        } else {
+            n->out.data = g->weight_floats + nfloats;
+            nfloats += align_floats(we->count);
+        }
+        decode_weight(m, we, n->out.data, n->out.ints);
+    }
+    return HD_OK;
+}
+
 /* Builds nodes from the parsed JSON; on failure the graph is freed by the caller. */
 static hd_status build_graph(hd_tfjs_graph *g, const cJSON *root, manifest *m)
 {
@@ -928,108 +1031,7 @@ static hd_status build_graph(hd_tfjs_graph *g, const cJSON *root, manifest *m)
             st = hd_fail(HD_ERR_FORMAT, "%s: two nodes are called '%s'", g->path, sorted[i].name);
             goto done;
         }
-    /* Inputs: "name", "name:0"; control inputs "^name" are ordering hints only and ignored. */
-    g->input = -1;
-    for (int i = 0; i < nn; i++) {
-        tg_node *n = &g->nodes[i];
-        const cJSON *in;
-        cJSON_ArrayForEach(in, cJSON_GetObjectItemCaseSensitive(js[i], "input")) {
-            if (!cJSON_IsString(in)) {
-                st = NODE_FAIL(g, n, "an input is not a string");
-                goto done;
-            }
-            if (in->valuestring[0] == '^') continue;
-            char ref[512];
-            snprintf(ref, sizeof ref, "%s", in->valuestring);
-            char *colon = strrchr(ref, ':');
-            if (colon) {
-                if (strcmp(colon, ":0") != 0) {
-                    st = NODE_FAIL(g, n, "input '%s': only the first output of a node is supported", ref);
-                    goto done;
-                }
-                *colon = '\0';
-            }
-            int src = find_node(sorted, nn, ref);
-            if (src < 0) {
-                st = NODE_FAIL(g, n, "input '%s' is not a node of the graph", ref);
-                goto done;
-            }
-            if (n->nin == MAX_INPUTS) {
-                st = NODE_FAIL(g, n, "more than %d inputs", MAX_INPUTS);
-                goto done;
-            }
-            n->in[n->nin++] = src;
-            g->nodes[src].consumers++;
-            indeg[i]++;
-        }
-        if (n->kind == OP_PLACEHOLDER) {
-            if (g->input >= 0) {
-                st = NODE_FAIL(g, n, "a second input (one Placeholder only)");
-                goto done;
-            }
-            g->input = i;
-        }
-    }
-    if (g->input < 0) {
-        st = hd_fail(HD_ERR_FORMAT, "%s: the graph has no Placeholder input", g->path);
-        goto done;
-    }
-    /* Constants: every Const must be a manifest weight, of the shape its node declares. */
-    size_t nfloats = 0, nints = 0;
-    for (int i = 0; i < nn; i++) {
-        tg_node *n = &g->nodes[i];
-        if (n->kind != OP_CONST) continue;
-        int w;
-        for (w = 0; w < m->nw; w++)
-            if (strcmp(m->w[w].name, n->name) == 0) break;
-        if (w == m->nw) {
-            st = NODE_FAIL(g, n, "no weight of this name in the weightsManifest");
-            goto done;
-        }
-        wentry *we = &m->w[w];
-        const cJSON *tshape = cJSON_GetObjectItemCaseSensitive(
-            cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(node_attr(js[i], "value"), "tensor"),
-                                             "tensorShape"),
-            "dim");
-        if (tshape) {
-            int k = 0, ok = cJSON_IsArray(tshape) && cJSON_GetArraySize(tshape) == we->ndim;
-            cJSON_ArrayForEach(e, tshape) {
-                long long v;
-                if (!ok || !json_int(cJSON_GetObjectItemCaseSensitive(e, "size"), &v) || v != we->dims[k]) ok = 0;
-                k++;
-            }
-            if (!ok) {
-                st = NODE_FAIL(g, n, "its declared shape differs from the manifest's");
-                goto done;
-            }
-        }
-        set_shape(&n->out, we->ndim, we->dims);
-        size_t *count = we->type == W_I32 ? &nints : &nfloats;
-        *count += align_floats(we->count);
-    }
-    g->weight_floats = hd_malloc(nfloats * sizeof(float));
-    g->weight_ints = hd_malloc(nints * sizeof(int32_t));
-    if (!g->weight_floats || !g->weight_ints) {
-        st = HD_ERR_NOMEM;
-        goto done;
-    }
-    nfloats = nints = 0;
-    for (int i = 0; i < nn; i++) {
-        tg_node *n = &g->nodes[i];
-        if (n->kind != OP_CONST) continue;
-        int w;
-        for (w = 0; w < m->nw; w++)
-            if (strcmp(m->w[w].name, n->name) == 0) break;
-        wentry *we = &m->w[w];
-        if (we->type == W_I32) {
-            n->out.ints = g->weight_ints + nints;
-            nints += align_floats(we->count);
-        } else {
-            n->out.data = g->weight_floats + nfloats;
-            nfloats += align_floats(we->count);
-        }
-        decode_weight(m, we, n->out.data, n->out.ints);
-    }
+    if ((st = link_inputs(g, js, sorted, indeg)) != HD_OK || (st = bind_constants(g, js, m)) != HD_OK) goto done;
     /* Topological order (Kahn): a node runs after all its inputs; a cycle is an error. */
     int head = 0, tail = 0;
     for (int i = 0; i < nn; i++)

@@ -1,7 +1,7 @@
-/* hdnet_net.c: HD-Net (SPEC section 3) and its PatchGAN discriminator: parameter tables in the
- * checkpoint's order, initialisation, and the forward and backward passes over one block of
- * activations made at creation. Layers come from src/nn (conv, activations, pooling) and
- * Common-Net from src/model/unet. */
+/* hdnet_net.c: HD-Net (SPEC section 3): parameter tables in the checkpoint's order,
+ * initialisation, the stage clock the profile reads, and the forward and backward passes over one
+ * block of activations made at creation. Layers come from src/nn (conv, activations, pooling) and
+ * Common-Net from src/model/unet; the discriminator is disc.c's. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,36 +9,25 @@
 
 #define HD_NORMAL_EPS 1e-6f
 #define HD_LRELU 0.1f
-#define HD_DISC_LRELU 0.2f
-#define HD_INSTNORM_EPS 1e-5f
-
-static const int disc_channels[5] = {3, 64, 128, 256, 512};
 
 const char *const hd_net_stage_names[HD_NET_STAGES] = {"conv_in", "a_net", "s_net", "n_net", "l_net", "heads", "disc"};
 
-/* Profiling (net->profile set): the clock at the start of a stage, then lap() adds the time since
- * *t to stage k of the forward (fwd) or backward table and restarts *t. Without a profile both
- * do nothing. */
 /* The benchmarks' profiler (core.h, hd_prof_*) gets the same laps as phases of the same names. */
-typedef struct stage_clock {
-    double t;
-    hd_prof_mark m;
-} stage_clock;
 static const char *const stage_bwd_names[HD_NET_STAGES] = {"conv_in bwd", "a_net bwd", "s_net bwd", "n_net bwd",
                                                            "l_net bwd",   "heads bwd", "disc bwd"};
 
-static stage_clock clock_start(const hd_net *net)
+hd_net_stage_clock hd_net_stage_start(const hd_net_profile *profile)
 {
-    stage_clock c = {net->profile ? hd_seconds() : 0.0, hd_prof_now()};
+    hd_net_stage_clock c = {profile ? hd_seconds() : 0.0, hd_prof_now()};
     return c;
 }
 
-static void lap(const hd_net *net, int bwd, hd_net_stage k, stage_clock *c)
+void hd_net_stage_lap(hd_net_profile *profile, int bwd, hd_net_stage k, hd_net_stage_clock *c)
 {
     hd_prof_lap(bwd ? stage_bwd_names[k] : hd_net_stage_names[k], &c->m);
-    if (!net->profile) return;
+    if (!profile) return;
     double now = hd_seconds();
-    (bwd ? net->profile->bwd : net->profile->fwd)[k] += now - c->t;
+    (bwd ? profile->bwd : profile->fwd)[k] += now - c->t;
     c->t = now;
 }
 
@@ -60,7 +49,7 @@ static void table_add(hd_param_table *t, const char *name, int ndim, int64_t d0,
     t->total += p->count;
 }
 
-static void table_conv(hd_param_table *t, const char *prefix, int cin, int cout)
+void hd_param_table_conv(hd_param_table *t, const char *prefix, int cin, int cout)
 {
     char name[64];
     snprintf(name, sizeof name, "%s.weight", prefix);
@@ -78,22 +67,14 @@ void hd_net_param_table(const hd_net_config *cfg, hd_param_table *t)
 {
     memset(t, 0, sizeof *t);
     int w = cfg->width;
-    table_conv(t, "conv_in", 3, HD_FEAT);
+    hd_param_table_conv(t, "conv_in", 3, HD_FEAT);
     table_unet(t, "a_net", HD_FEAT, 3, w);
     table_unet(t, "s_net", HD_FEAT, 1, w);
     table_unet(t, "n_net", 1, 3, w);
-    table_conv(t, "l_net.conv1", w, HD_LNET_HIDDEN);
-    table_conv(t, "l_net.conv2", HD_LNET_HIDDEN, HD_LNET_HIDDEN);
+    hd_param_table_conv(t, "l_net.conv1", w, HD_LNET_HIDDEN);
+    hd_param_table_conv(t, "l_net.conv2", HD_LNET_HIDDEN, HD_LNET_HIDDEN);
     table_add(t, "l_net.fc.weight", 2, HD_SH_COEFFS, HD_LNET_HIDDEN, 0, 0);
     table_add(t, "l_net.fc.bias", 1, HD_SH_COEFFS, 0, 0, 0);
-}
-
-void hd_disc_param_table(hd_param_table *t)
-{
-    memset(t, 0, sizeof *t);
-    static const char *const names[5] = {"disc.c1", "disc.c2", "disc.c3", "disc.c4", "disc.out"};
-    for (int k = 0; k < 4; k++) table_conv(t, names[k], disc_channels[k], disc_channels[k + 1]);
-    table_conv(t, names[4], 512, 1);
 }
 
 int hd_param_find(const hd_param_table *t, const char *name)
@@ -143,69 +124,38 @@ double hd_net_macs(const hd_net_config *cfg)
 
 /* ---------------------------------------------------------------- creation */
 
-/* Carves activations out of one block: the first pass (base NULL) only counts. */
-typedef struct carver {
-    float *base;
-    size_t used;
-} carver;
-
-static float *carve(carver *c, size_t n)
-{
-    float *p = c->base ? c->base + c->used : NULL;
-    c->used += (n + 15) & ~(size_t)15; /* keep 64-byte alignment */
-    return p;
-}
-
-static void layout(hd_net *net, carver *c)
+static void layout(hd_net *net, hd_carver *c)
 {
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     int train = net->mode == HD_NET_TRAIN;
-    net->input = carve(c, B * 3 * HW);
-    net->feat = carve(c, B * HD_FEAT * HW);
-    net->a_logit = carve(c, B * 3 * HW);
-    net->albedo = carve(c, B * 3 * HW);
-    net->s_logit = carve(c, B * HW);
-    net->shading = carve(c, B * HW);
-    net->n_logit = carve(c, B * 3 * HW);
-    net->n_tanh = carve(c, B * 3 * HW);
-    net->normal = carve(c, B * 3 * HW);
+    net->input = hd_carve(c, B * 3 * HW);
+    net->feat = hd_carve(c, B * HD_FEAT * HW);
+    net->a_logit = hd_carve(c, B * 3 * HW);
+    net->albedo = hd_carve(c, B * 3 * HW);
+    net->s_logit = hd_carve(c, B * HW);
+    net->shading = hd_carve(c, B * HW);
+    net->n_logit = hd_carve(c, B * 3 * HW);
+    net->n_tanh = hd_carve(c, B * 3 * HW);
+    net->normal = hd_carve(c, B * 3 * HW);
     size_t n1 = B * HD_LNET_HIDDEN * (size_t)net->H1 * net->W1, n2 = B * HD_LNET_HIDDEN * (size_t)net->H2 * net->W2;
-    net->l_h1 = carve(c, n1);
-    net->l_h2 = carve(c, n2);
-    net->l_pool = carve(c, B * HD_LNET_HIDDEN);
-    net->light = carve(c, B * HD_SH_COEFFS);
+    net->l_h1 = hd_carve(c, n1);
+    net->l_h2 = hd_carve(c, n2);
+    net->l_pool = hd_carve(c, B * HD_LNET_HIDDEN);
+    net->light = hd_carve(c, B * HD_SH_COEFFS);
     if (!train) return;
-    net->d_feat = carve(c, B * HD_FEAT * HW);
-    net->d_a_logit = carve(c, B * 3 * HW);
-    net->d_albedo = carve(c, B * 3 * HW);
-    net->d_s_logit = carve(c, B * HW);
-    net->d_shading = carve(c, B * HW);
-    net->d_n_logit = carve(c, B * 3 * HW);
-    net->d_n_tanh = carve(c, B * 3 * HW);
-    net->d_normal = carve(c, B * 3 * HW);
-    net->d_bottleneck = carve(c, B * (size_t)net->cfg.width * net->Hb * net->Wb);
-    net->d_l_h1 = carve(c, n1);
-    net->d_l_h2 = carve(c, n2);
-    net->d_l_pool = carve(c, B * HD_LNET_HIDDEN);
-    net->d_light = carve(c, B * HD_SH_COEFFS);
-    net->disc_in = carve(c, B * 3 * HW);
-    net->d_disc_in = carve(c, B * 3 * HW);
-    size_t d1 = B * 64 * (size_t)net->Hd[0] * net->Wd[0];
-    net->disc_h1 = carve(c, d1);
-    net->d_disc_h1 = carve(c, d1);
-    for (int k = 0; k < 3; k++) {
-        size_t C = (size_t)disc_channels[k + 2], n = B * C * net->Hd[k + 1] * net->Wd[k + 1];
-        net->disc_pre[k] = carve(c, n);
-        net->disc_norm[k] = carve(c, n);
-        net->disc_act[k] = carve(c, n);
-        net->d_disc_pre[k] = carve(c, n);
-        net->d_disc_norm[k] = carve(c, n);
-        net->d_disc_act[k] = carve(c, n);
-        net->disc_mean[k] = carve(c, B * C);
-        net->disc_rstd[k] = carve(c, B * C);
-    }
-    net->disc_logit = carve(c, B * (size_t)net->Hp * net->Wp);
-    net->d_disc_logit = carve(c, B * (size_t)net->Hp * net->Wp);
+    net->d_feat = hd_carve(c, B * HD_FEAT * HW);
+    net->d_a_logit = hd_carve(c, B * 3 * HW);
+    net->d_albedo = hd_carve(c, B * 3 * HW);
+    net->d_s_logit = hd_carve(c, B * HW);
+    net->d_shading = hd_carve(c, B * HW);
+    net->d_n_logit = hd_carve(c, B * 3 * HW);
+    net->d_n_tanh = hd_carve(c, B * 3 * HW);
+    net->d_normal = hd_carve(c, B * 3 * HW);
+    net->d_bottleneck = hd_carve(c, B * (size_t)net->cfg.width * net->Hb * net->Wb);
+    net->d_l_h1 = hd_carve(c, n1);
+    net->d_l_h2 = hd_carve(c, n2);
+    net->d_l_pool = hd_carve(c, B * HD_LNET_HIDDEN);
+    net->d_light = hd_carve(c, B * HD_SH_COEFFS);
 }
 
 /* weights NULL: the net owns zeroed parameters; else it reads the caller's (inference only). */
@@ -239,23 +189,9 @@ static hd_status net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net
                         HD_LRELU, path));
     net->H2 = hd_conv3x3_out_h(net->l_conv2);
     net->W2 = hd_conv3x3_out_w(net->l_conv2);
-    if (mode == HD_NET_TRAIN) {
-        hd_disc_param_table(&net->disc_table);
-        hd_conv3x3 **plans[4] = {&net->disc_c1, &net->disc_c2, &net->disc_c3, &net->disc_c4};
-        int h = H, wd = H;
-        for (int k = 0; k < 4; k++) {
-            TRY(hd_conv3x3_plan(plans[k], B, disc_channels[k], h, wd, disc_channels[k + 1], 2,
-                                k == 0 ? HD_ACT_LRELU : HD_ACT_NONE, HD_DISC_LRELU, path));
-            h = net->Hd[k] = hd_conv3x3_out_h(*plans[k]);
-            wd = net->Wd[k] = hd_conv3x3_out_w(*plans[k]);
-        }
-        TRY(hd_conv3x3_plan(&net->disc_out, B, 512, h, wd, 1, 1, HD_ACT_NONE, 0.0f, path));
-        net->Hp = hd_conv3x3_out_h(net->disc_out);
-        net->Wp = hd_conv3x3_out_w(net->disc_out);
-    }
 #undef TRY
 
-    carver c = {NULL, 0};
+    hd_carver c = {NULL, 0};
     layout(net, &c);
     size_t bytes;
     if (!hd_mul_size(c.used, sizeof(float), &bytes)) {
@@ -273,14 +209,9 @@ static hd_status net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net
     c.base = net->act_mem;
     c.used = 0;
     layout(net, &c);
-    if (mode == HD_NET_TRAIN) {
-        net->grads = hd_calloc(net->table.total, sizeof(float));
-        net->disc_params = hd_calloc(net->disc_table.total, sizeof(float));
-        net->disc_grads = hd_calloc(net->disc_table.total, sizeof(float));
-        if (!net->grads || !net->disc_params || !net->disc_grads) {
-            st = HD_ERR_NOMEM;
-            goto fail;
-        }
+    if (mode == HD_NET_TRAIN && !(net->grads = hd_calloc(net->table.total, sizeof(float)))) {
+        st = HD_ERR_NOMEM;
+        goto fail;
     }
     hd_unet_bind(net->a_net, net->params + net->off_a, net->grads ? net->grads + net->off_a : NULL);
     hd_unet_bind(net->s_net, net->params + net->off_s, net->grads ? net->grads + net->off_s : NULL);
@@ -308,52 +239,48 @@ void hd_net_free(hd_net *net)
     hd_unet_free(net->a_net);
     hd_unet_free(net->s_net);
     hd_unet_free(net->n_net);
-    hd_conv3x3 *plans[] = {net->conv_in, net->l_conv1, net->l_conv2, net->disc_c1, net->disc_c2, net->disc_c3, net->disc_c4, net->disc_out};
+    hd_conv3x3 *plans[] = {net->conv_in, net->l_conv1, net->l_conv2};
     for (size_t i = 0; i < sizeof plans / sizeof plans[0]; i++) hd_conv3x3_free(plans[i]);
     free(net->act_mem);
     if (!net->weights_borrowed) free(net->params);
     free(net->grads);
-    free(net->disc_params);
-    free(net->disc_grads);
     memset(net, 0, sizeof *net);
 }
 
 /* ---------------------------------------------------------------- HD-Net forward / backward */
 
-static float *param_of(const hd_param_table *t, float *base, const char *name)
+float *hd_param_of(const hd_param_table *t, float *base, const char *name)
 {
     int i = hd_param_find(t, name);
     return i < 0 ? NULL : base + t->p[i].offset;
 }
 
-#define P(name) param_of(&net->table, net->params, name)
-#define G(name) param_of(&net->table, net->grads, name)
-#define DP(name) param_of(&net->disc_table, net->disc_params, name)
-#define DG(name) (want_params ? param_of(&net->disc_table, net->disc_grads, name) : NULL)
+#define P(name) hd_param_of(&net->table, net->params, name)
+#define G(name) hd_param_of(&net->table, net->grads, name)
 
 void hd_net_forward(hd_net *net)
 {
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
-    stage_clock t = clock_start(net);
+    hd_net_stage_clock t = hd_net_stage_start(net->profile);
     /* f = conv_in(I) */
     hd_conv3x3_forward(net->conv_in, net->feat, net->input, P("conv_in.weight"), P("conv_in.bias"));
-    lap(net, 0, HD_STAGE_CONV_IN, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_CONV_IN, &t);
     /* A = sigmoid(a_net(f)) */
     hd_unet_forward(net->a_net, net->feat, net->a_logit);
-    lap(net, 0, HD_STAGE_A_NET, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_A_NET, &t);
     hd_sigmoid_forward(net->albedo, net->a_logit, B * 3 * HW);
-    lap(net, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
     /* S = softplus(s_net(f)) */
     hd_unet_forward(net->s_net, net->feat, net->s_logit);
-    lap(net, 0, HD_STAGE_S_NET, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_S_NET, &t);
     hd_softplus_forward(net->shading, net->s_logit, B * HW);
-    lap(net, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
     /* N = normalize(tanh(n_net(S))), S detached */
     hd_unet_forward(net->n_net, net->n_input_hold ? net->n_input_hold : net->shading, net->n_logit);
-    lap(net, 0, HD_STAGE_N_NET, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_N_NET, &t);
     hd_tanh_forward(net->n_tanh, net->n_logit, B * 3 * HW);
     hd_l2norm3_forward(net->normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
-    lap(net, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
     /* l = fc(mean(lrelu(conv2(lrelu(conv1(bottleneck)))))) */
     const float *bott = hd_unet_bottleneck(net->n_net);
     hd_conv3x3_forward(net->l_conv1, net->l_h1, bott, P("l_net.conv1.weight"), P("l_net.conv1.bias"));
@@ -361,7 +288,7 @@ void hd_net_forward(hd_net *net)
     hd_meanpool_forward(net->l_pool, net->l_h2, net->B, HD_LNET_HIDDEN, net->H2 * net->W2);
     hd_linear_forward(net->light, net->l_pool, P("l_net.fc.weight"), P("l_net.fc.bias"), net->B, HD_LNET_HIDDEN,
                       HD_SH_COEFFS);
-    lap(net, 0, HD_STAGE_L_NET, &t);
+    hd_net_stage_lap(net->profile, 0, HD_STAGE_L_NET, &t);
 }
 
 void hd_net_zero_grad(hd_net *net)
@@ -385,7 +312,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     size_t n1 = B * HD_LNET_HIDDEN * (size_t)net->H1 * net->W1, n2 = B * HD_LNET_HIDDEN * (size_t)net->H2 * net->W2;
     size_t nb = B * (size_t)net->cfg.width * net->Hb * net->Wb;
     int all = set == HD_TRAIN_ALL;
-    stage_clock t = clock_start(net);
+    hd_net_stage_clock t = hd_net_stage_start(net->profile);
 
     /* L-Net. forward: l = fc(pool); pool = mean(h2); h2 = lrelu(conv2(h1)); h1 = lrelu(conv1(bottleneck)) */
     memset(net->d_l_pool, 0, B * HD_LNET_HIDDEN * sizeof(float));
@@ -399,7 +326,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
                         net->l_h2, net->l_h1, P("l_net.conv2.weight"));
     hd_conv3x3_backward(net->l_conv1, all ? net->d_bottleneck : NULL, G("l_net.conv1.weight"), G("l_net.conv1.bias"),
                         net->d_l_h1, net->l_h1, hd_unet_bottleneck(net->n_net), P("l_net.conv1.weight"));
-    lap(net, 1, HD_STAGE_L_NET, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_L_NET, &t);
     if (!all) return;
 
     /* N-Net. forward: N = t / max(|t|, eps), t = tanh(n_logit); its input S is detached (dinp NULL) */
@@ -407,9 +334,9 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_n_logit, 0, B * 3 * HW * sizeof(float));
     hd_l2norm3_backward(net->d_n_tanh, net->d_normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
     hd_tanh_backward(net->d_n_logit, net->d_n_tanh, net->n_tanh, B * 3 * HW);
-    lap(net, 1, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->n_net, net->d_n_logit, net->d_bottleneck, NULL);
-    lap(net, 1, HD_STAGE_N_NET, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_N_NET, &t);
 
     /* ASD-Net. forward: A = sigmoid(a_logit), S = softplus(s_logit), both from f = conv_in(I) */
     memset(net->d_a_logit, 0, B * 3 * HW * sizeof(float));
@@ -417,69 +344,12 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_feat, 0, B * HD_FEAT * HW * sizeof(float));
     hd_sigmoid_backward(net->d_a_logit, net->d_albedo, net->albedo, B * 3 * HW);
     hd_softplus_backward(net->d_s_logit, net->d_shading, net->s_logit, B * HW);
-    lap(net, 1, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->a_net, net->d_a_logit, NULL, net->d_feat);
-    lap(net, 1, HD_STAGE_A_NET, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_A_NET, &t);
     hd_unet_backward(net->s_net, net->d_s_logit, NULL, net->d_feat);
-    lap(net, 1, HD_STAGE_S_NET, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_S_NET, &t);
     hd_conv3x3_backward(net->conv_in, NULL, G("conv_in.weight"), G("conv_in.bias"), net->d_feat, net->feat,
                         net->input, P("conv_in.weight"));
-    lap(net, 1, HD_STAGE_CONV_IN, &t);
-}
-
-/* ---------------------------------------------------------------- discriminator */
-
-int hd_disc_patches(const hd_net *net) { return net->Hp * net->Wp; }
-
-void hd_disc_forward(hd_net *net)
-{
-    static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
-    static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
-    hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
-    stage_clock t = clock_start(net);
-    /* c1: lrelu_0.2(conv(x)) */
-    hd_conv3x3_forward(net->disc_c1, net->disc_h1, net->disc_in, DP("disc.c1.weight"), DP("disc.c1.bias"));
-    const float *prev = net->disc_h1;
-    for (int k = 0; k < 3; k++) {
-        int C = disc_channels[k + 2], hw = net->Hd[k + 1] * net->Wd[k + 1];
-        /* ck: lrelu_0.2(instnorm(conv(prev))) */
-        hd_conv3x3_forward(plans[k], net->disc_pre[k], prev, DP(wn[k]), DP(bn[k]));
-        hd_instnorm_forward(net->disc_norm[k], net->disc_mean[k], net->disc_rstd[k], net->disc_pre[k], net->B, C, hw, HD_INSTNORM_EPS);
-        hd_lrelu_forward(net->disc_act[k], net->disc_norm[k], (size_t)net->B * C * hw, HD_DISC_LRELU);
-        prev = net->disc_act[k];
-    }
-    hd_conv3x3_forward(net->disc_out, net->disc_logit, prev, DP("disc.out.weight"), DP("disc.out.bias"));
-    lap(net, 0, HD_STAGE_DISC, &t);
-}
-
-void hd_disc_backward(hd_net *net, int want_input, int want_params)
-{
-    static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
-    static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
-    hd_conv3x3 *plans[3] = {net->disc_c2, net->disc_c3, net->disc_c4};
-    size_t B = (size_t)net->B;
-    stage_clock t = clock_start(net);
-    memset(net->d_disc_h1, 0, B * 64 * (size_t)net->Hd[0] * net->Wd[0] * sizeof(float));
-    for (int k = 0; k < 3; k++) {
-        size_t n = B * (size_t)disc_channels[k + 2] * net->Hd[k + 1] * net->Wd[k + 1] * sizeof(float);
-        memset(net->d_disc_pre[k], 0, n);
-        memset(net->d_disc_norm[k], 0, n);
-        memset(net->d_disc_act[k], 0, n);
-    }
-    /* forward: logit = conv(act3) */
-    hd_conv3x3_backward(net->disc_out, net->d_disc_act[2], DG("disc.out.weight"), DG("disc.out.bias"), net->d_disc_logit,
-                        net->disc_logit, net->disc_act[2], DP("disc.out.weight"));
-    for (int k = 2; k >= 0; k--) {
-        int C = disc_channels[k + 2], hw = net->Hd[k + 1] * net->Wd[k + 1];
-        /* forward: act = lrelu_0.2(norm), norm = instnorm(pre), pre = conv(prev) */
-        hd_lrelu_backward(net->d_disc_norm[k], net->d_disc_act[k], net->disc_norm[k], B * C * hw, HD_DISC_LRELU);
-        hd_instnorm_backward(net->d_disc_pre[k], net->d_disc_norm[k], net->disc_norm[k], net->disc_rstd[k], net->B, C, hw);
-        float *gprev = k ? net->d_disc_act[k - 1] : net->d_disc_h1;
-        const float *prev = k ? net->disc_act[k - 1] : net->disc_h1;
-        hd_conv3x3_backward(plans[k], gprev, DG(wn[k]), DG(bn[k]), net->d_disc_pre[k], net->disc_pre[k], prev, DP(wn[k]));
-    }
-    /* forward: c1 = lrelu_0.2(conv(x)) */
-    hd_conv3x3_backward(net->disc_c1, want_input ? net->d_disc_in : NULL, DG("disc.c1.weight"), DG("disc.c1.bias"),
-                        net->d_disc_h1, net->disc_h1, net->disc_in, DP("disc.c1.weight"));
-    lap(net, 1, HD_STAGE_DISC, &t);
+    hd_net_stage_lap(net->profile, 1, HD_STAGE_CONV_IN, &t);
 }

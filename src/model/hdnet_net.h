@@ -1,7 +1,7 @@
 /* hdnet_net.h: HD-Net of SPEC section 3 wired together: conv_in, ASD-Net (a_net, s_net),
- * NLD-Net (n_net, l_net), and the PatchGAN discriminator. One flat parameter arena per network
- * (HD-Net, discriminator) described by a parameter table in a fixed order; forward and backward
- * over activations allocated once per (batch, size).
+ * NLD-Net (n_net, l_net); the PatchGAN discriminator is its own network beside it (disc.h). One
+ * flat parameter arena per network described by a parameter table in a fixed order; forward and
+ * backward over activations allocated once per (batch, size).
  *
  * Letters: B images in a forward (a batch of P pairs is B = 2P, image 2p is i and 2p+1 is j),
  * H = W = size, HW = H * W, w the Common-Net width, Hb = H / 32 the bottleneck side.
@@ -15,7 +15,6 @@
 
 #define HD_NET_FORMAT_VERSION 1
 #define HD_NET_MAX_PARAMS 128
-#define HD_DISC_PARAMS 10
 #define HD_FEAT 32      /* conv_in output channels */
 #define HD_LNET_HIDDEN 64
 
@@ -34,10 +33,12 @@ typedef struct hd_param_table {
 /* The parameter table of HD-Net: conv_in.weight/bias, a_net.*, s_net.*, n_net.*,
  * l_net.conv1/conv2/fc, in that order. Offsets of the sub-nets are returned for binding. */
 void hd_net_param_table(const hd_net_config *cfg, hd_param_table *t);
-/* The discriminator's table: disc.c1 .. disc.c4, disc.out (weight, bias each). */
-void hd_disc_param_table(hd_param_table *t);
 /* Index of a named parameter in a table, or -1. */
 int hd_param_find(const hd_param_table *t, const char *name);
+/* The named parameter's first float in an arena laid out by t (params or grads), or NULL. */
+float *hd_param_of(const hd_param_table *t, float *base, const char *name);
+/* Adds a 3x3 convolution's PREFIX.weight (cout, cin, 3, 3) and PREFIX.bias (cout) to t. */
+void hd_param_table_conv(hd_param_table *t, const char *prefix, int cin, int cout);
 /* Fills a flat arena with PyTorch's default init (uniform +-1/sqrt(fan_in)), in table order,
  * from rng. */
 void hd_params_init(const hd_param_table *t, float *params, hd_rng *rng);
@@ -45,8 +46,8 @@ void hd_params_init(const hd_param_table *t, float *params, hd_rng *rng);
 hd_status hd_net_config_check(const hd_net_config *cfg);
 
 typedef enum hd_net_mode {
-    HD_NET_INFER = 0, /* forward only, no gradients, no discriminator */
-    HD_NET_TRAIN      /* gradients for HD-Net and the discriminator */
+    HD_NET_INFER = 0, /* forward only, no gradients */
+    HD_NET_TRAIN      /* gradients */
 } hd_net_mode;
 
 /* Which parameters receive gradients in hd_net_backward. */
@@ -55,7 +56,7 @@ typedef enum hd_net_train_set {
     HD_TRAIN_LNET     /* only l_net (stage 2a: A-, S-, N-Net frozen) */
 } hd_net_train_set;
 
-/* Parts of the network a profile splits its time into (hd_net.profile). */
+/* Parts of the networks a profile splits its time into (hd_net.profile, hd_disc.profile). */
 typedef enum hd_net_stage {
     HD_STAGE_CONV_IN = 0,
     HD_STAGE_A_NET,
@@ -63,7 +64,7 @@ typedef enum hd_net_stage {
     HD_STAGE_N_NET,
     HD_STAGE_L_NET,
     HD_STAGE_HEADS, /* sigmoid, softplus, tanh, normalisation and their gradients */
-    HD_STAGE_DISC,  /* the discriminator, every call */
+    HD_STAGE_DISC,  /* the discriminator (disc.h), every call */
     HD_NET_STAGES
 } hd_net_stage;
 
@@ -76,6 +77,30 @@ typedef struct hd_net_profile {
     double fwd[HD_NET_STAGES], bwd[HD_NET_STAGES];
 } hd_net_profile;
 
+/* A stage's clock (the networks' own files): hd_net_stage_start at a pass's start, then
+ * hd_net_stage_lap adds the time since to stage k of profile's forward (bwd 0) or backward table
+ * (nothing without a profile) and to the benchmarks' profiler (core.h, hd_prof_*) as a phase of
+ * the stage's name, and restarts the clock. */
+typedef struct hd_net_stage_clock {
+    double t;
+    hd_prof_mark m;
+} hd_net_stage_clock;
+hd_net_stage_clock hd_net_stage_start(const hd_net_profile *profile);
+void hd_net_stage_lap(hd_net_profile *profile, int bwd, hd_net_stage k, hd_net_stage_clock *c);
+
+/* Carves a network's activations out of one block: a first pass with base NULL only counts
+ * (used), a second over the allocated block hands out the pointers, 64-byte aligned. */
+typedef struct hd_carver {
+    float *base;
+    size_t used;
+} hd_carver;
+static inline float *hd_carve(hd_carver *c, size_t n)
+{
+    float *p = c->base ? c->base + c->used : NULL;
+    c->used += (n + 15) & ~(size_t)15;
+    return p;
+}
+
 /* A network is its configuration and weights (cfg, table, params) and its run state (the conv
  * plans with their scratch, the activations and gradients). The weights are owned (hd_net_create:
  * training, one net per trainer) or borrowed read-only (hd_net_create_run: inference, many run
@@ -85,17 +110,14 @@ typedef struct hd_net {
     hd_net_config cfg;
     hd_net_mode mode;
     int B, H, W;
-    hd_param_table table, disc_table;
+    hd_param_table table;
     size_t off_a, off_s, off_n; /* float offsets of the sub-nets in params */
     float *params, *grads;      /* (table.total); params not written when weights_borrowed */
     int weights_borrowed;       /* params belong to the caller (hd_net_create_run) */
-    float *disc_params, *disc_grads; /* (disc_table.total), TRAIN only */
 
     hd_unet *a_net, *s_net, *n_net;
     hd_conv3x3 *conv_in, *l_conv1, *l_conv2;
-    hd_conv3x3 *disc_c1, *disc_c2, *disc_c3, *disc_c4, *disc_out;
     int Hb, Wb, H1, W1, H2, W2; /* bottleneck, l_net conv1 and conv2 output sides */
-    int Hd[4], Wd[4], Hp, Wp;   /* discriminator sides after c1..c4, and of the patch logits */
 
     /* Gradient checks only: when not NULL, N-Net reads this (B, 1, HW) instead of S, so that a
      * finite difference sees S detached from N-Net as the analytic gradient does. */
@@ -120,13 +142,6 @@ typedef struct hd_net {
     /* gradients of activations (TRAIN only) */
     float *d_feat, *d_a_logit, *d_albedo, *d_s_logit, *d_shading, *d_n_logit, *d_n_tanh, *d_normal;
     float *d_bottleneck, *d_l_h1, *d_l_h2, *d_l_pool, *d_light;
-    /* discriminator activations (TRAIN only; names: disc_ is the discriminator, d_ a gradient
-     * everywhere): c1 output; per c2..c4 pre-norm, normed, activated */
-    float *disc_in;    /* (B, 3, HW) the discriminator's input */
-    float *disc_h1;    /* (B, 64, Hd0 Wd0) */
-    float *disc_pre[3], *disc_norm[3], *disc_act[3], *disc_mean[3], *disc_rstd[3];
-    float *disc_logit; /* (B, 1, Hp Wp) */
-    float *d_disc_in, *d_disc_h1, *d_disc_pre[3], *d_disc_norm[3], *d_disc_act[3], *d_disc_logit; /* their gradients */
 } hd_net;
 
 /* Makes a network for batches of B images at cfg->size; parameters are allocated (zeroed: load or
@@ -149,15 +164,6 @@ void hd_net_zero_act_grad(hd_net *net);
  * paths: the N-Net input S is detached; with HD_TRAIN_LNET only l_net receives gradients.
  * The activation gradients are consumed (overwritten). */
 void hd_net_backward(hd_net *net, hd_net_train_set set);
-
-/* Discriminator forward of net->disc_in (B, 3, HW) into net->disc_logit (B, 1, Hp, Wp). */
-void hd_disc_forward(hd_net *net);
-/* Discriminator backward of the last forward from net->d_disc_logit (consumed): accumulates the input
- * gradient into net->d_disc_in when want_input, and parameter gradients into net->disc_grads when
- * want_params. */
-void hd_disc_backward(hd_net *net, int want_input, int want_params);
-/* Number of patch logits per image. */
-int hd_disc_patches(const hd_net *net);
 
 /* Multiply-accumulates of one HD-Net forward of one image at cfg (for GFLOP/s). */
 double hd_net_macs(const hd_net_config *cfg);

@@ -179,6 +179,98 @@ static const dnnl_memory_desc_t *qmd(const_dnnl_primitive_desc_t pd, dnnl_query_
     return dnnl_primitive_desc_query_md(pd, what, 0);
 }
 
+/* The memory descriptors and geometry of a plan's primitives: inputs (src, weights, diff_dst: *_lp)
+ * in lp, outputs (dst, diff_src: *_any; diff_weights: dw_any) and the bias in f32 (in FP32 both
+ * are the same); *_user the caller's layouts. */
+typedef struct conv_descs {
+    dnnl_memory_desc_t s_any, d_any, s_lp, w_lp, d_lp, dw_any, b_md, s_user, w_user, d_user;
+    dnnl_dims_t strides, pad_l, pad_r;
+} conv_descs;
+
+static hd_status conv_descs_init(const hd_conv3x3 *p, dnnl_data_type_t lp, conv_descs *m)
+{
+    dnnl_dims_t sdims = {p->B, p->C, p->H, p->W}, wdims = {p->OC, p->C, 3, 3}, bdims = {p->OC},
+                ddims = {p->B, p->OC, p->Ho, p->Wo};
+    m->strides[0] = m->strides[1] = p->stride;
+    m->pad_l[0] = m->pad_l[1] = 1;
+    /* right padding so that Ho = (H + 1 + pad_r - 3) / stride + 1 exactly */
+    m->pad_r[0] = (p->Ho - 1) * p->stride + 3 - p->H - 1;
+    m->pad_r[1] = (p->Wo - 1) * p->stride + 3 - p->W - 1;
+    dnnl_format_tag_t act_tag = p->nc16 ? dnnl_nChw16c : dnnl_nchw;
+    dnnl_format_tag_t act_any = p->nc16 ? dnnl_nChw16c : dnnl_format_tag_any; /* nc16: no reorders of layout */
+    DN(dnnl_memory_desc_init_by_tag(&m->s_any, 4, sdims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->d_any, 4, ddims, dnnl_f32, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->s_lp, 4, sdims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->d_lp, 4, ddims, lp, act_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->w_lp, 4, wdims, lp, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->dw_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
+    DN(dnnl_memory_desc_init_by_tag(&m->b_md, 1, bdims, dnnl_f32, dnnl_x));
+    DN(dnnl_memory_desc_init_by_tag(&m->s_user, 4, sdims, dnnl_f32, act_tag));
+    DN(dnnl_memory_desc_init_by_tag(&m->w_user, 4, wdims, dnnl_f32, dnnl_oihw));
+    DN(dnnl_memory_desc_init_by_tag(&m->d_user, 4, ddims, dnnl_f32, act_tag));
+    return HD_OK;
+fail:
+    return HD_ERR_ARG;
+}
+
+/* Whether a plan's shape takes Winograd (FP32, stride 1, channels in blocks of 16, at least
+ * WINO_MIN a side), unless HD_CONV_DIRECT is set to anything but 0. */
+static int winograd_shape(const hd_conv3x3 *p)
+{
+    const char *direct_env = getenv("HD_CONV_DIRECT");
+    return p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN && p->W >= WINO_MIN &&
+           !(direct_env && *direct_env && strcmp(direct_env, "0"));
+}
+
+/* Backward weights in bf16 lost to FP32 (Winograd or direct) on this machine's Zen 5 (1.7x slower
+ * per step, docs/performance.md) where forward and backward data gained (2x, 1.25x): a bf16 plan
+ * computes its weight gradients in FP32 unless HD_BF16_WEIGHT_GRAD=1. */
+static int weight_grad_f32(dnnl_data_type_t lp)
+{
+    const char *wg_env = getenv("HD_BF16_WEIGHT_GRAD");
+    return lp != dnnl_f32 && !(wg_env && strcmp(wg_env, "1") == 0);
+}
+
+/* The FP32 forward that backward weights in FP32 takes as its hint: Winograd when wino and oneDNN
+ * has it (*used_wino 1), else direct. */
+static hd_status fp32_hint(const conv_descs *m, dnnl_primitive_attr_t attr, int wino, dnnl_primitive_desc_t *hint,
+                           int *used_wino)
+{
+    dnnl_convolution_desc_t hdesc;
+    dnnl_alg_kind_t halg = wino ? dnnl_convolution_winograd : dnnl_convolution_direct;
+    *used_wino = wino;
+    if (dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, halg, &m->s_any, &m->dw_any, &m->b_md,
+                                           &m->d_any, m->strides, m->pad_l, m->pad_r) == dnnl_success &&
+        dnnl_primitive_desc_create(hint, &hdesc, attr, engine, NULL) == dnnl_success)
+        return HD_OK;
+    *hint = NULL, *used_wino = 0;
+    DN(dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, dnnl_convolution_direct, &m->s_any,
+                                          &m->dw_any, &m->b_md, &m->d_any, m->strides, m->pad_l, m->pad_r));
+    DN(dnnl_primitive_desc_create(hint, &hdesc, attr, engine, NULL));
+    return HD_OK;
+fail:
+    return HD_ERR_ARG;
+}
+
+/* A plan's bias buffers (zero_bias, dbias and their memories) and its scratchpad of `scratch`
+ * bytes. */
+static hd_status plan_buffers(hd_conv3x3 *p, const dnnl_memory_desc_t *b_md, size_t scratch)
+{
+    dn *d = p->dnnl;
+    d->zero_bias = hd_calloc((size_t)p->OC, sizeof(float));
+    d->dbias_buf = hd_calloc((size_t)p->OC, sizeof(float));
+    if (!d->zero_bias || !d->dbias_buf) return HD_ERR_NOMEM;
+    DN(dnnl_memory_create(&d->bias, b_md, engine, DNNL_MEMORY_NONE));
+    DN(dnnl_memory_create(&d->dbias, b_md, engine, d->dbias_buf));
+    dnnl_memory_desc_t sp_md;
+    dnnl_dims_t spdims = {(dnnl_dim_t)(scratch ? scratch : 1)};
+    DN(dnnl_memory_desc_init_by_tag(&sp_md, 1, spdims, dnnl_u8, dnnl_x));
+    DN(dnnl_memory_create(&d->scratch, &sp_md, engine, DNNL_MEMORY_ALLOCATE));
+    return HD_OK;
+fail:
+    return HD_ERR_ARG;
+}
+
 /* Builds the plan with the primitives' inputs (src, weights, diff_dst) in data type lp (f32, or
  * bf16: oneDNN's bf16 kernels, which take FP32 for every output and accumulate in FP32). */
 static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
@@ -193,54 +285,34 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
         return hd_fail(HD_ERR_ARG, "conv3x3: oneDNN: no stream");
     }
     dnnl_primitive_desc_t fpd = NULL, dpd = NULL, wpd = NULL;
+    dnnl_primitive_desc_t hint32 = NULL; /* the FP32 forward backward weights then takes as its hint */
     dnnl_primitive_attr_t fattr = NULL, dattr = NULL, wattr = NULL;
     dnnl_post_ops_t po = NULL;
     size_t scratch = 0;
+    hd_status st;
 
-    dnnl_dims_t sdims = {p->B, p->C, p->H, p->W}, wdims = {p->OC, p->C, 3, 3}, bdims = {p->OC},
-                ddims = {p->B, p->OC, p->Ho, p->Wo};
-    dnnl_dims_t strides = {p->stride, p->stride}, pad_l = {1, 1};
-    /* right padding so that Ho = (H + 1 + pad_r - 3) / stride + 1 exactly */
-    dnnl_dims_t pad_r = {(p->Ho - 1) * p->stride + 3 - p->H - 1, (p->Wo - 1) * p->stride + 3 - p->W - 1};
-    /* the primitives' tensors: inputs (src, weights, diff_dst: *_lp) in lp, outputs (dst,
-     * diff_src: *_any; diff_weights: dw_any) and the bias in f32; in FP32 both are the same */
-    dnnl_memory_desc_t s_any, d_any, s_lp, w_lp, d_lp, dw_any, b_md, s_user, w_user, d_user;
-    dnnl_format_tag_t act_tag = p->nc16 ? dnnl_nChw16c : dnnl_nchw;
-    dnnl_format_tag_t act_any = p->nc16 ? dnnl_nChw16c : dnnl_format_tag_any; /* nc16: no reorders of layout */
-    DN(dnnl_memory_desc_init_by_tag(&s_any, 4, sdims, dnnl_f32, act_any));
-    DN(dnnl_memory_desc_init_by_tag(&d_any, 4, ddims, dnnl_f32, act_any));
-    DN(dnnl_memory_desc_init_by_tag(&s_lp, 4, sdims, lp, act_any));
-    DN(dnnl_memory_desc_init_by_tag(&d_lp, 4, ddims, lp, act_any));
-    DN(dnnl_memory_desc_init_by_tag(&w_lp, 4, wdims, lp, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&dw_any, 4, wdims, dnnl_f32, dnnl_format_tag_any));
-    DN(dnnl_memory_desc_init_by_tag(&b_md, 1, bdims, dnnl_f32, dnnl_x));
-    DN(dnnl_memory_desc_init_by_tag(&s_user, 4, sdims, dnnl_f32, act_tag));
-    DN(dnnl_memory_desc_init_by_tag(&w_user, 4, wdims, dnnl_f32, dnnl_oihw));
-    DN(dnnl_memory_desc_init_by_tag(&d_user, 4, ddims, dnnl_f32, act_tag));
+    conv_descs m;
+    if (conv_descs_init(p, lp, &m) != HD_OK) goto fail;
+    dnnl_memory_desc_t *s_any = &m.s_any, *d_any = &m.d_any, *s_lp = &m.s_lp, *w_lp = &m.w_lp, *d_lp = &m.d_lp,
+                       *dw_any = &m.dw_any, *b_md = &m.b_md, *s_user = &m.s_user, *w_user = &m.w_user,
+                       *d_user = &m.d_user;
+    dnnl_dim_t *strides = m.strides, *pad_l = m.pad_l, *pad_r = m.pad_r;
 
-    const char *direct_env = getenv("HD_CONV_DIRECT");
-    int wino_shape = p->nc16 && p->stride == 1 && p->C % 16 == 0 && p->OC % 16 == 0 && p->H >= WINO_MIN &&
-                     p->W >= WINO_MIN && !(direct_env && *direct_env && strcmp(direct_env, "0"));
-    int wino = lp == dnnl_f32 && wino_shape;
-    /* backward weights in bf16 lost to FP32 (Winograd or direct) on this machine's Zen 5 (1.7x
-     * slower per step, docs/performance.md) where forward and backward data gained (2x, 1.25x): a
-     * bf16 plan computes its weight gradients in FP32 unless HD_BF16_WEIGHT_GRAD=1 */
-    const char *wg_env = getenv("HD_BF16_WEIGHT_GRAD");
-    int bw_f32 = lp != dnnl_f32 && !(wg_env && strcmp(wg_env, "1") == 0);
-    dnnl_primitive_desc_t hint32 = NULL; /* the FP32 forward backward weights then takes as its hint */
+    const int wino_shape = winograd_shape(p), wino = lp == dnnl_f32 && wino_shape;
+    const int bw_f32 = weight_grad_f32(lp);
 
     /* forward: dst = act(conv(src, w) + b); Winograd without the post-op, else direct with it */
     dnnl_convolution_desc_t fdesc, ddesc, wdesc;
     DN(attr_user_scratch(&fattr));
-    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, &s_lp,
-                                                   &w_lp, &b_md, &d_any, strides, pad_l, pad_r) == dnnl_success &&
+    if (wino && dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_winograd, s_lp,
+                                                   w_lp, b_md, d_any, strides, pad_l, pad_r) == dnnl_success &&
         dnnl_primitive_desc_create(&fpd, &fdesc, fattr, engine, NULL) == dnnl_success) {
         d->act_pass = p->act == HD_ACT_LRELU;
         d->fwd_wino = 1;
     } else {
         fpd = NULL;
-        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, &s_lp,
-                                              &w_lp, &b_md, &d_any, strides, pad_l, pad_r));
+        DN(dnnl_convolution_forward_desc_init(&fdesc, dnnl_forward_training, dnnl_convolution_direct, s_lp,
+                                              w_lp, b_md, d_any, strides, pad_l, pad_r));
         if (p->act == HD_ACT_LRELU) {
             DN(dnnl_post_ops_create(&po));
             DN(dnnl_post_ops_append_eltwise(po, 1.0f, dnnl_eltwise_relu, p->slope, 0.0f)); /* x > 0 ? x : alpha x */
@@ -251,17 +323,17 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
     NOT_REFERENCE(fpd, "forward");
     DN(dnnl_primitive_create(&d->fwd, fpd));
     if (scratch_size(fpd) > scratch) scratch = scratch_size(fpd);
-    DN(make_view(&d->src, &s_user, qmd(fpd, dnnl_query_src_md), 1, 0, &scratch));
-    DN(make_view(&d->w, &w_user, qmd(fpd, dnnl_query_weights_md), 1, 0, &scratch));
-    DN(make_view(&d->dst, &d_user, qmd(fpd, dnnl_query_dst_md), 0, 0, &scratch));
+    DN(make_view(&d->src, s_user, qmd(fpd, dnnl_query_src_md), 1, 0, &scratch));
+    DN(make_view(&d->w, w_user, qmd(fpd, dnnl_query_weights_md), 1, 0, &scratch));
+    DN(make_view(&d->dst, d_user, qmd(fpd, dnnl_query_dst_md), 0, 0, &scratch));
 
     /* backward data: dsrc = conv^T(ddst, w) */
     DN(attr_user_scratch(&dattr));
-    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, &s_any, &w_lp, &d_lp,
+    if (!wino || dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_winograd, s_any, w_lp, d_lp,
                                                           strides, pad_l, pad_r) != dnnl_success ||
         dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd) != dnnl_success) {
         dpd = NULL;
-        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, &s_any, &w_lp, &d_lp,
+        DN(dnnl_convolution_backward_data_desc_init(&ddesc, dnnl_convolution_direct, s_any, w_lp, d_lp,
                                                     strides, pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&dpd, &ddesc, dattr, engine, fpd));
         d->bd_alg = dnnl_convolution_direct;
@@ -271,68 +343,46 @@ static hd_status plan_typed(hd_conv3x3 *p, dnnl_data_type_t lp)
     NOT_REFERENCE(dpd, "backward data");
     DN(dnnl_primitive_create(&d->bwd_data, dpd));
     if (scratch_size(dpd) > scratch) scratch = scratch_size(dpd);
-    DN(make_view(&d->bd_ddst, &d_user, qmd(dpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
-    DN(make_view(&d->bd_w, &w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
-    DN(make_view(&d->bd_dsrc, &s_user, qmd(dpd, dnnl_query_diff_src_md), 0, !p->nc16, &scratch));
-    if (p->nc16) DN(dnnl_memory_create(&d->dsrc_tmp, &s_user, engine, DNNL_MEMORY_ALLOCATE));
+    DN(make_view(&d->bd_ddst, d_user, qmd(dpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
+    DN(make_view(&d->bd_w, w_user, qmd(dpd, dnnl_query_weights_md), 1, 0, &scratch));
+    DN(make_view(&d->bd_dsrc, s_user, qmd(dpd, dnnl_query_diff_src_md), 0, !p->nc16, &scratch));
+    if (p->nc16) DN(dnnl_memory_create(&d->dsrc_tmp, s_user, engine, DNNL_MEMORY_ALLOCATE));
 
     /* backward weights: dw = ddst x src, db = sum ddst */
     DN(attr_user_scratch(&wattr));
-    const dnnl_memory_desc_t *ws = &s_lp, *wd = &d_lp;
+    const dnnl_memory_desc_t *ws = s_lp, *wd = d_lp;
     const_dnnl_primitive_desc_t whint = fpd;
     int wwino = wino;
     if (bw_f32) {
-        dnnl_convolution_desc_t hdesc;
-        ws = &s_any, wd = &d_any, wwino = wino_shape;
-        dnnl_alg_kind_t halg = wwino ? dnnl_convolution_winograd : dnnl_convolution_direct;
-        if (dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, halg, &s_any, &dw_any, &b_md, &d_any,
-                                               strides, pad_l, pad_r) != dnnl_success ||
-            dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL) != dnnl_success) {
-            hint32 = NULL, wwino = 0;
-            DN(dnnl_convolution_forward_desc_init(&hdesc, dnnl_forward_training, dnnl_convolution_direct, &s_any, &dw_any,
-                                                  &b_md, &d_any, strides, pad_l, pad_r));
-            DN(dnnl_primitive_desc_create(&hint32, &hdesc, wattr, engine, NULL));
-        }
+        ws = s_any, wd = d_any;
+        if (fp32_hint(&m, wattr, wino_shape, &hint32, &wwino) != HD_OK) goto fail;
         whint = hint32;
     }
-    if (!wwino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, ws, &dw_any, &b_md,
+    if (!wwino || dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_winograd, ws, dw_any, b_md,
                                                               wd, strides, pad_l, pad_r) != dnnl_success ||
         dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint) != dnnl_success) {
         wpd = NULL;
-        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, ws, &dw_any, &b_md, wd, strides,
+        DN(dnnl_convolution_backward_weights_desc_init(&wdesc, dnnl_convolution_direct, ws, dw_any, b_md, wd, strides,
                                                        pad_l, pad_r));
         DN(dnnl_primitive_desc_create(&wpd, &wdesc, wattr, engine, whint));
     }
     NOT_REFERENCE(wpd, "backward weights");
     DN(dnnl_primitive_create(&d->bwd_weights, wpd));
     if (scratch_size(wpd) > scratch) scratch = scratch_size(wpd);
-    DN(make_view(&d->bw_src, &s_user, qmd(wpd, dnnl_query_src_md), 1, 0, &scratch));
-    DN(make_view(&d->bw_ddst, &d_user, qmd(wpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
-    DN(make_view(&d->bw_dw, &w_user, qmd(wpd, dnnl_query_diff_weights_md), 0, 1, &scratch));
+    DN(make_view(&d->bw_src, s_user, qmd(wpd, dnnl_query_src_md), 1, 0, &scratch));
+    DN(make_view(&d->bw_ddst, d_user, qmd(wpd, dnnl_query_diff_dst_md), 1, 0, &scratch));
+    DN(make_view(&d->bw_dw, w_user, qmd(wpd, dnnl_query_diff_weights_md), 0, 1, &scratch));
     d->share_src = d->src.reorder && dnnl_memory_desc_equal(qmd(fpd, dnnl_query_src_md), qmd(wpd, dnnl_query_src_md));
     d->share_ddst = d->bd_ddst.reorder &&
                     dnnl_memory_desc_equal(qmd(dpd, dnnl_query_diff_dst_md), qmd(wpd, dnnl_query_diff_dst_md));
 
-    d->zero_bias = hd_calloc((size_t)p->OC, sizeof(float));
-    d->dbias_buf = hd_calloc((size_t)p->OC, sizeof(float));
-    if (!d->zero_bias || !d->dbias_buf) goto fail;
-    DN(dnnl_memory_create(&d->bias, &b_md, engine, DNNL_MEMORY_NONE));
-    DN(dnnl_memory_create(&d->dbias, &b_md, engine, d->dbias_buf));
-    dnnl_memory_desc_t sp_md;
-    dnnl_dims_t spdims = {(dnnl_dim_t)(scratch ? scratch : 1)};
-    DN(dnnl_memory_desc_init_by_tag(&sp_md, 1, spdims, dnnl_u8, dnnl_x));
-    DN(dnnl_memory_create(&d->scratch, &sp_md, engine, DNNL_MEMORY_ALLOCATE));
+    if (plan_buffers(p, b_md, scratch) != HD_OK) goto fail;
 
-    dnnl_primitive_desc_destroy(fpd);
-    dnnl_primitive_desc_destroy(dpd);
-    dnnl_primitive_desc_destroy(wpd);
-    if (hint32) dnnl_primitive_desc_destroy(hint32);
-    dnnl_primitive_attr_destroy(fattr);
-    dnnl_primitive_attr_destroy(dattr);
-    dnnl_primitive_attr_destroy(wattr);
-    if (po) dnnl_post_ops_destroy(po);
-    return HD_OK;
+    st = HD_OK;
+    goto done;
 fail:
+    st = HD_ERR_ARG;
+done:
     if (fpd) dnnl_primitive_desc_destroy(fpd);
     if (dpd) dnnl_primitive_desc_destroy(dpd);
     if (wpd) dnnl_primitive_desc_destroy(wpd);
@@ -341,8 +391,8 @@ fail:
     if (dattr) dnnl_primitive_attr_destroy(dattr);
     if (wattr) dnnl_primitive_attr_destroy(wattr);
     if (po) dnnl_post_ops_destroy(po);
-    hd_conv3x3_dnnl_free(p);
-    return HD_ERR_ARG;
+    if (st != HD_OK) hd_conv3x3_dnnl_free(p);
+    return st;
 }
 
 hd_status hd_conv3x3_dnnl_plan(hd_conv3x3 *p)

@@ -25,11 +25,12 @@ hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
     return HD_OK;
 }
 
-hd_status hd_losses_create(hd_losses *L, hd_net *net)
+hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc)
 {
     memset(L, 0, sizeof *L);
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     L->net = net;
+    L->disc = disc;
     L->shading_mean = HD_SHADING_MEAN_DEFAULT;
     L->shade = hd_calloc(B * HW, sizeof(float));
     L->d_shade = hd_calloc(B * HW, sizeof(float));
@@ -605,18 +606,19 @@ double hd_loss_shading_reconstruction(hd_losses *L, float scale)
 double hd_loss_adversarial(hd_losses *L, float scale)
 {
     hd_net *net = L->net;
-    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
-    memcpy(net->disc_in, L->render, B * 3 * HW * sizeof(float));
-    hd_disc_forward(net);
-    memset(net->d_disc_logit, 0, n * sizeof(float));
-    double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? net->d_disc_logit : NULL, net->disc_logit, n, 1, 2.0f * scale);
+    hd_disc *D = L->disc;
+    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(D);
+    memcpy(D->in, L->render, B * 3 * HW * sizeof(float));
+    hd_disc_forward(D);
+    memset(D->d_logit, 0, n * sizeof(float));
+    double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? D->d_logit : NULL, D->logit, n, 1, 2.0f * scale);
     if (scale == 0.0f) return loss;
-    memset(net->d_disc_in, 0, B * 3 * HW * sizeof(float));
-    hd_disc_backward(net, 1, 0);
+    memset(D->d_in, 0, B * 3 * HW * sizeof(float));
+    hd_disc_backward(D, 1, 0);
     /* render = m * A * s: dA += g * m * s, ds += sum_c g * m * A */
     for (size_t b = 0; b < B; b++) {
         const float *m = L->batch->mask + b * HW, *s = L->shade + b * HW, *A = net->albedo + b * 3 * HW;
-        const float *g = net->d_disc_in + b * 3 * HW;
+        const float *g = D->d_in + b * 3 * HW;
         float *dA = net->d_albedo + b * 3 * HW, *ds = L->d_shade + b * HW;
         for (size_t c = 0; c < 3; c++)
             for (size_t p = 0; p < HW; p++) {
@@ -631,24 +633,24 @@ double hd_loss_adversarial(hd_losses *L, float scale)
 /* L_D = mean softplus(-D(m I)) + mean softplus(D(render)), i and j, mean over pairs. */
 double hd_loss_discriminator(hd_losses *L, float scale)
 {
-    hd_net *net = L->net;
-    size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(net);
+    hd_disc *D = L->disc;
+    size_t B = (size_t)D->B, HW = (size_t)D->H * D->W, n = B * (size_t)hd_disc_patches(D);
     int grad = scale != 0.0f;
     for (size_t b = 0; b < B; b++) {
         const float *m = L->batch->mask + b * HW, *I = L->batch->image + b * 3 * HW;
-        float *x = net->disc_in + b * 3 * HW;
+        float *x = D->in + b * 3 * HW;
         for (size_t c = 0; c < 3; c++)
             for (size_t p = 0; p < HW; p++) x[c * HW + p] = m[p] * I[c * HW + p];
     }
-    hd_disc_forward(net);
-    memset(net->d_disc_logit, 0, n * sizeof(float));
-    double real = 2.0 * hd_loss_bce_logits(grad ? net->d_disc_logit : NULL, net->disc_logit, n, 1, 2.0f * scale);
-    if (grad) hd_disc_backward(net, 0, 1);
-    memcpy(net->disc_in, L->render, B * 3 * HW * sizeof(float));
-    hd_disc_forward(net);
-    memset(net->d_disc_logit, 0, n * sizeof(float));
-    double fake = 2.0 * hd_loss_bce_logits(grad ? net->d_disc_logit : NULL, net->disc_logit, n, 0, 2.0f * scale);
-    if (grad) hd_disc_backward(net, 0, 1);
+    hd_disc_forward(D);
+    memset(D->d_logit, 0, n * sizeof(float));
+    double real = 2.0 * hd_loss_bce_logits(grad ? D->d_logit : NULL, D->logit, n, 1, 2.0f * scale);
+    if (grad) hd_disc_backward(D, 0, 1);
+    memcpy(D->in, L->render, B * 3 * HW * sizeof(float));
+    hd_disc_forward(D);
+    memset(D->d_logit, 0, n * sizeof(float));
+    double fake = 2.0 * hd_loss_bce_logits(grad ? D->d_logit : NULL, D->logit, n, 0, 2.0f * scale);
+    if (grad) hd_disc_backward(D, 0, 1);
     return real + fake;
 }
 

@@ -9,6 +9,7 @@
 #ifndef HD_LOSSES_H
 #define HD_LOSSES_H
 
+#include "model/disc.h"
 #include "model/hdnet_net.h"
 #include "train/train_data.h"
 
@@ -58,6 +59,7 @@ typedef enum hd_light_target {
 /* Scratch of the losses of one training step, made once per network. */
 typedef struct hd_losses {
     hd_net *net;
+    hd_disc *disc; /* the adversarial terms' discriminator */
     const hd_pair_batch *batch;
     hd_light_target target;
     float *shade, *d_shade, *recon, *d_recon, *render, *weight;
@@ -83,7 +85,7 @@ typedef struct hd_losses {
     float *fit_mask;   /* (HW) scratch: the fit's weight for one image, fit_layout on its mask */
 } hd_losses;
 
-hd_status hd_losses_create(hd_losses *L, hd_net *net);
+hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc);
 void hd_losses_free(hd_losses *L);
 
 /* The photo's own light (the shading prior's, and --light-target image's) fitted to the skin alone:
@@ -139,7 +141,7 @@ double hd_loss_fit_pair(hd_losses *L, float scale);
 double hd_loss_adversarial(hd_losses *L, float scale);
 /* The discriminator's own loss, mean softplus(-D(m I)) + mean softplus(D(render)) (render
  * detached), for i and j, averaged over pairs; accumulates scale times its gradient into
- * net->disc_grads. */
+ * disc->grads. */
 double hd_loss_discriminator(hd_losses *L, float scale);
 
 /* Every generator term (prepare first): terms[k] = L_k, returns sum_k w_k L_k, and accumulates

@@ -196,7 +196,7 @@ static hd_status start_trainer(const hd_train_options *o, run_start *rs, hd_trai
         if ((s = hd_checkpoint_take(&rs->st, rs->path, &g)) != HD_OK) return s;
         /* a training checkpoint given as --init also brings its discriminator */
         if (hd_safetensors_find(&rs->st, "disc.c1.weight")) {
-            hd_tensor_group d = {&t->net.disc_table, "", t->net.disc_params};
+            hd_tensor_group d = {&t->disc.table, "", t->disc.params};
             if ((s = hd_checkpoint_take(&rs->st, rs->path, &d)) != HD_OK) return s;
         }
     }
@@ -238,9 +238,9 @@ static hd_status check_step_finite(const hd_trainer *t, const hd_step_result *re
         return hd_fail(HD_ERR_NUMERIC, "%s: training stopped at iteration %ld: the loss is not finite (total %g, "
                        "adversarial %g, discriminator %g); nothing of this step was written, the last checkpoint stays",
                        run_dir, t->iteration, res->total, res->terms[HD_LOSS_ADV], res->disc);
-    size_t n = t->net.table.total, nd = t->net.disc_table.total;
+    size_t n = t->net.table.total, nd = t->disc.table.total;
     ok = all_finite(t->net.params, n) && all_finite(t->adam_m, n) && all_finite(t->adam_v, n);
-    if (ok && nd && t->net.disc_params) ok = all_finite(t->net.disc_params, nd);
+    if (ok && nd && t->disc.params) ok = all_finite(t->disc.params, nd);
     if (ok && nd && t->disc_adam_m) ok = all_finite(t->disc_adam_m, nd) && all_finite(t->disc_adam_v, nd);
     if (!ok)
         return hd_fail(HD_ERR_NUMERIC, "%s: training stopped at iteration %ld: the weights or the optimizer state "

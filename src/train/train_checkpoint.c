@@ -32,9 +32,9 @@ static void trainer_groups(const hd_trainer *t, hd_tensor_group g[TRAINER_GROUPS
 {
     const hd_net *net = &t->net;
     const hd_tensor_group all[TRAINER_GROUPS] = {
-        {&net->table, "", net->params},           {&net->disc_table, "", net->disc_params},
+        {&net->table, "", net->params},           {&t->disc.table, "", t->disc.params},
         {&net->table, "adam.m.", t->adam_m},      {&net->table, "adam.v.", t->adam_v},
-        {&net->disc_table, "adam.m.", t->disc_adam_m}, {&net->disc_table, "adam.v.", t->disc_adam_v},
+        {&t->disc.table, "adam.m.", t->disc_adam_m}, {&t->disc.table, "adam.v.", t->disc_adam_v},
     };
     memcpy(g, all, sizeof all);
 }
@@ -99,7 +99,7 @@ hd_status hd_trainer_load(hd_trainer *t, const char *path)
 hd_status hd_trainer_write_dump(const hd_trainer *t, const hd_step_result *r, const char *path)
 {
     const hd_net *net = &t->net;
-    int B = net->B, H = net->H, W = net->W, ng = net->table.count, nd = net->disc_table.count;
+    int B = net->B, H = net->H, W = net->W, ng = net->table.count, nd = t->disc.table.count;
     int count = 2 * ng + 2 * nd + 8 + HD_LOSS_TERMS + 3;
     hd_tensor *ts = hd_calloc((size_t)count, sizeof *ts);
     char (*names)[160] = hd_calloc((size_t)count, sizeof *names);
@@ -138,8 +138,8 @@ hd_status hd_trainer_write_dump(const hd_trainer *t, const hd_step_result *r, co
     scalars[HD_LOSS_TERMS + 1] = (float)r->disc;
     ADD("loss.total", &scalars[HD_LOSS_TERMS], 1, 1, 0, 0, 0);
     ADD("loss.disc", &scalars[HD_LOSS_TERMS + 1], 1, 1, 0, 0, 0);
-    const hd_param_table *tabs[2] = {&net->table, &net->disc_table};
-    const float *vals[2] = {net->params, net->disc_params}, *grads[2] = {net->grads, net->disc_grads};
+    const hd_param_table *tabs[2] = {&net->table, &t->disc.table};
+    const float *vals[2] = {net->params, t->disc.params}, *grads[2] = {net->grads, t->disc.grads};
     for (int k = 0; k < 2; k++)
         for (int i = 0; i < tabs[k]->count; i++) {
             const hd_param *p = &tabs[k]->p[i];

@@ -31,13 +31,15 @@ hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, 
     t->micro = micro;
     hd_status s = hd_net_create(&t->net, cfg, 2 * micro, HD_NET_TRAIN, HD_CONV_AUTO);
     if (s != HD_OK) return s;
-    if ((s = hd_losses_create(&t->losses, &t->net)) != HD_OK || (s = hd_pair_batch_alloc(&t->batch, pairs, cfg->size)) != HD_OK)
+    if ((s = hd_disc_create(&t->disc, 2 * micro, cfg->size, HD_CONV_AUTO)) != HD_OK ||
+        (s = hd_losses_create(&t->losses, &t->net, &t->disc)) != HD_OK ||
+        (s = hd_pair_batch_alloc(&t->batch, pairs, cfg->size)) != HD_OK)
         goto fail;
     t->adam_m = hd_calloc(t->net.table.total, sizeof(float));
     t->adam_v = hd_calloc(t->net.table.total, sizeof(float));
-    t->disc_adam_m = hd_calloc(t->net.disc_table.total, sizeof(float));
-    t->disc_adam_v = hd_calloc(t->net.disc_table.total, sizeof(float));
-    t->grad_sum = hd_calloc(t->net.table.total + t->net.disc_table.total, sizeof(double));
+    t->disc_adam_m = hd_calloc(t->disc.table.total, sizeof(float));
+    t->disc_adam_v = hd_calloc(t->disc.table.total, sizeof(float));
+    t->grad_sum = hd_calloc(t->net.table.total + t->disc.table.total, sizeof(double));
     if (!t->adam_m || !t->adam_v || !t->disc_adam_m || !t->disc_adam_v || !t->grad_sum) {
         s = HD_ERR_NOMEM;
         goto fail;
@@ -48,7 +50,7 @@ hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, 
     t->stage = HD_TRAIN_STAGE_1;
     t->seed = seed;
     hd_rng_seed(&t->rng, seed, HD_INIT_STREAM);
-    hd_train_init_params(cfg, seed, t->net.params, t->net.disc_params);
+    hd_train_init_params(cfg, seed, t->net.params, t->disc.params);
     return HD_OK;
 fail:
     hd_trainer_free(t);
@@ -60,6 +62,7 @@ void hd_trainer_free(hd_trainer *t)
     hd_losses_free(&t->losses);
     hd_pair_batch_free(&t->batch);
     hd_net_free(&t->net);
+    hd_disc_free(&t->disc);
     free(t->adam_m);
     free(t->adam_v);
     free(t->disc_adam_m);
@@ -148,14 +151,15 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
     /* Each micro-batch's gradient is summed in double (grad_sum: HD-Net's, then the
      * discriminator's), so the float result does not depend on how the micro-batches were split
      * among ranks: the same --micro-batch gives the same weights on any number of ranks. */
-    size_t ng = net->table.total, nd = net->disc_table.total;
+    hd_disc *D = &t->disc;
+    size_t ng = net->table.total, nd = D->table.total;
     int disc_grad = (what & HD_EVAL_DISC_GRAD) != 0;
     if (grad || disc_grad) memset(t->grad_sum, 0, (ng + nd) * sizeof(double));
     int first, count;
     hd_trainer_share(t, &first, &count);
     for (int c = first / t->micro; c < (first + count) / t->micro; c++) {
         if (grad) memset(net->grads, 0, ng * sizeof(float));
-        if (disc_grad) memset(net->disc_grads, 0, nd * sizeof(float));
+        if (disc_grad) memset(D->grads, 0, nd * sizeof(float));
         t->chunk = chunk_of(t, c);
         memcpy(net->input, t->chunk.image, n * sizeof(float));
         hd_prof_begin("forward"); /* phases of the benchmarks' profile (core.h) */
@@ -196,7 +200,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
             return hd_fail(HD_ERR_NUMERIC, "the discriminator's loss is %s at iteration %ld", isnan(d) ? "NaN" : "infinite",
                            t->iteration + 1);
         r->disc += d * part;
-        if (disc_grad) add_to(t->grad_sum + ng, net->disc_grads, nd);
+        if (disc_grad) add_to(t->grad_sum + ng, D->grads, nd);
     }
     if (t->red.ranks > 1) {
         hd_status s = reduce_over_ranks(t, r, ng + nd);
@@ -206,7 +210,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
     if (grad)
         for (size_t i = 0; i < ng; i++) net->grads[i] = (float)t->grad_sum[i];
     if (disc_grad)
-        for (size_t i = 0; i < nd; i++) net->disc_grads[i] = (float)t->grad_sum[ng + i];
+        for (size_t i = 0; i < nd; i++) D->grads[i] = (float)t->grad_sum[ng + i];
     hd_prof_end();
     return HD_OK;
 }
@@ -231,7 +235,7 @@ hd_status hd_trainer_step(hd_trainer *t, hd_step_result *r, const char *dump_pat
     const char *which;
     if (check_finite(&net->table, net->grads, &which))
         return hd_fail(HD_ERR_NUMERIC, "the gradient of '%s' is not finite at iteration %ld", which, t->iteration + 1);
-    if (check_finite(&net->disc_table, net->disc_grads, &which))
+    if (check_finite(&t->disc.table, t->disc.grads, &which))
         return hd_fail(HD_ERR_NUMERIC, "the gradient of '%s' is not finite at iteration %ld", which, t->iteration + 1);
     if (dump_path && (s = hd_trainer_write_dump(t, r, dump_path)) != HD_OK) return s;
     /* Stage 2b starts with fresh Adam moments (2a only moved L-Net's). */
@@ -249,7 +253,7 @@ hd_status hd_trainer_step(hd_trainer *t, hd_step_result *r, const char *dump_pat
     hd_adam_step(net->params + first, net->grads + first, t->adam_m + first, t->adam_v + first,
                  net->table.total - first, lr, HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->adam_t);
     t->disc_adam_t++;
-    hd_adam_step(net->disc_params, net->disc_grads, t->disc_adam_m, t->disc_adam_v, net->disc_table.total, t->lr,
+    hd_adam_step(t->disc.params, t->disc.grads, t->disc_adam_m, t->disc_adam_v, t->disc.table.total, t->lr,
                  HD_ADAM_BETA1, HD_ADAM_BETA2, HD_ADAM_EPS, t->disc_adam_t);
     hd_prof_end();
     t->iteration++;

@@ -50,15 +50,17 @@ typedef struct hd_reducer {
     void *ctx;
 } hd_reducer;
 
-/* The optimisation state of one run: the network, the losses' scratch, both Adams. */
+/* The optimisation state of one run: the network and its discriminator, the losses' scratch, both
+ * Adams. */
 typedef struct hd_trainer {
     hd_net net;
+    hd_disc disc;
     hd_losses losses;
     hd_pair_batch batch; /* what the next step trains on (filled by the caller or the loader) */
     int micro;           /* pairs per forward pass (divides batch.pairs): the network holds 2 micro images */
     hd_pair_batch chunk; /* view of the micro-batch the network saw last (points into batch) */
     float *adam_m, *adam_v;           /* (net.table.total) */
-    float *disc_adam_m, *disc_adam_v; /* (net.disc_table.total) */
+    float *disc_adam_m, *disc_adam_v; /* (disc.table.total) */
     long adam_t, disc_adam_t;         /* Adam steps taken (bias correction) */
     size_t lnet_offset;               /* first float of l_net in the parameter arena */
     hd_loss_weights weights;
@@ -71,7 +73,7 @@ typedef struct hd_trainer {
     uint64_t seed;
     hd_rng rng;      /* checkpointed; data order is derived from (seed, iteration) */
     hd_reducer red;  /* this rank's share and the sum over ranks (zero: alone) */
-    double *grad_sum; /* (net.table.total + net.disc_table.total) the step's gradients, summed in double */
+    double *grad_sum; /* (net.table.total + disc.table.total) the step's gradients, summed in double */
 } hd_trainer;
 
 /* The outcome of one step. */
@@ -104,7 +106,7 @@ typedef enum hd_eval_what {
     HD_EVAL_LOSS = 0,      /* the generator's terms and total only */
     HD_EVAL_GRAD = 1,      /* and its gradient into net.grads */
     HD_EVAL_DISC = 2,      /* and the discriminator's loss */
-    HD_EVAL_DISC_GRAD = 4  /* and its gradient into net.disc_grads */
+    HD_EVAL_DISC_GRAD = 4  /* and its gradient into disc.grads */
 } hd_eval_what;
 
 /* Forward and every loss on t->batch without updating, plus what `what` asks for. Fails with
