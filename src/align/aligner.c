@@ -269,12 +269,13 @@ void hd_aligner_free(hd_aligner *aligner)
     free(aligner);
 }
 
-/* The faces of nboxes detections: the face mesh fitted on each (MediaPipe's two passes), those
- * the landmark model doubts dropped (counted in *dropped), the rest aligned into *out (allocated;
- * *count of them). *last gets the reason of the last face that failed to align. */
-static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, const hd_image *p3, int size,
-                           const hd_face_box *boxes, int nboxes, hd_aligned_face **out, int *count, int *dropped,
-                           hd_status *last)
+/* The faces of nboxes detections: the face mesh fitted on each (MediaPipe's two passes) in seen,
+ * those the landmark model doubts dropped (counted in *dropped), the rest aligned from the photo p3
+ * into *out (allocated; *count of them). seen is p3 or a copy of it with its shadows lifted, the
+ * same size. *last gets the reason of the last face that failed to align. */
+static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, const hd_image *seen, const hd_image *p3,
+                           int size, const hd_face_box *boxes, int nboxes, hd_aligned_face **out, int *count,
+                           int *dropped, hd_status *last)
 {
     *out = NULL;
     *count = 0;
@@ -284,7 +285,7 @@ static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, cons
     hd_status st = faces && landmarks ? HD_OK : HD_ERR_NOMEM;
     for (int b = 0; b < nboxes && st == HD_OK; b++) {
         float presence = 1;
-        hd_status fs = hd_face_mesh_fit(aligner->landmarks, p3, &boxes[b], 2, landmarks, &presence);
+        hd_status fs = hd_face_mesh_fit(aligner->landmarks, seen, &boxes[b], 2, landmarks, &presence);
         if (fs == HD_ERR_NOMEM) {
             st = fs;
             break;
@@ -351,6 +352,35 @@ hd_status hd_align_photo(const hd_image *photo, int size, hd_aligned_face **face
     return st;
 }
 
+/* The photo with its shadows lifted, for the landmark model's eyes only: each value v becomes
+ * sqrt(v), which raises a value of 0.04 to 0.2 and leaves white white. */
+static hd_status lift_shadows(const hd_image *p3, hd_image *out)
+{
+    hd_status st = hd_image_alloc(out, p3->width, p3->height, p3->channels);
+    if (st) return st;
+    size_t n = (size_t)p3->width * (size_t)p3->height * (size_t)p3->channels;
+    for (size_t i = 0; i < n; i++) out->data[i] = sqrtf(fmaxf(p3->data[i], 0.0f));
+    return HD_OK;
+}
+
+/* Another round of detection and fit after one that aligned no face: the boxes found in seen (by
+ * the pyramid, or zoomed out of the crop when zoomed) replace *boxes, and their faces *out. */
+static hd_status refind(align_runner *aligner, const hd_mesh *canonical, float min_score, float min_face,
+                        const hd_image *seen, const hd_image *p3, int size, int zoomed, hd_face_box **boxes,
+                        int *nboxes, hd_aligned_face **out, int *count, int *dropped, hd_status *last)
+{
+    hd_aligned_faces_free(*out, *count);
+    *out = NULL;
+    *count = 0;
+    free(*boxes);
+    *boxes = NULL;
+    *nboxes = 0;
+    hd_status st = zoomed ? hd_face_detector_find_zoomed(aligner->detector, seen, min_score, boxes, nboxes)
+                          : hd_face_detector_find(aligner->detector, seen, min_score, min_face, boxes, nboxes);
+    if (st == HD_OK) st = fit_boxes(aligner, canonical, seen, p3, size, *boxes, *nboxes, out, count, dropped, last);
+    return st;
+}
+
 static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, float min_score, float min_face,
                             const hd_image *photo, int size,
                             hd_aligned_face **faces, int *count)
@@ -372,18 +402,31 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
     hd_aligned_face *out = NULL;
     hd_status last = HD_OK;
     if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
-    st = fit_boxes(aligner, canonical, p3, size, boxes, nboxes, &out, count, &dropped, &last);
+    st = fit_boxes(aligner, canonical, p3, p3, size, boxes, nboxes, &out, count, &dropped, &last);
     /* what the pyramid found in a tight crop may be no face (the landmark model doubts it) while the
      * face itself, without context, scored under the threshold: the zoom-out of the crop */
     if (st == HD_OK && *count == 0 && nboxes > 0) {
-        hd_aligned_faces_free(out, 0);
-        out = NULL;
-        free(boxes);
-        boxes = NULL;
         int more = 0;
-        if ((st = hd_face_detector_find_zoomed(aligner->detector, p3, min_score, &boxes, &more))) goto done;
+        st = refind(aligner, canonical, min_score, min_face, p3, p3, size, 1, &boxes, &more, &out, count, &dropped,
+                    &last);
         nboxes += more;
-        st = fit_boxes(aligner, canonical, p3, size, boxes, more, &out, count, &dropped, &last);
+    }
+    /* a face under hard side light, half of it near black, is found but doubted by the landmark
+     * model (its presence falls under MIN_PRESENCE): both rounds again on the photo with its
+     * shadows lifted, the texture still cut from the photo itself */
+    if (st == HD_OK && *count == 0 && nboxes > 0) {
+        hd_image lifted = {0};
+        if ((st = lift_shadows(p3, &lifted))) goto done;
+        int more = 0;
+        st = refind(aligner, canonical, min_score, min_face, &lifted, p3, size, 0, &boxes, &more, &out, count,
+                    &dropped, &last);
+        nboxes += more;
+        if (st == HD_OK && *count == 0) {
+            st = refind(aligner, canonical, min_score, min_face, &lifted, p3, size, 1, &boxes, &more, &out, count,
+                        &dropped, &last);
+            nboxes += more;
+        }
+        hd_image_free(&lifted);
     }
     if (st == HD_OK && *count == 0) {
         if (last != HD_OK) st = last; /* its reason is already set */
