@@ -15,6 +15,8 @@
 #include "train/train.h"
 #include "model/checkpoint.h"
 #include "train/train_log.h"
+#include "io/image_io.h"
+#include "io/safetensors.h"
 
 /* ---- a synthetic pair: one smooth albedo on a sphere-like face under two lights */
 

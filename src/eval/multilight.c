@@ -19,6 +19,7 @@
 #include "core/core.h"
 #include "eval/eval_json.h"
 #include "eval/multilight.h"
+#include "eval/eval.h"
 
 #define CSV_MAX_BYTES (16u << 20)
 #define CSV_HEADER "file,subject,azimuth_deg,elevation_deg"
