@@ -297,7 +297,6 @@ typedef enum { HD_WHITE_BALANCE_OFF = 0, HD_WHITE_BALANCE_EYES = 1 } hd_white_ba
 /* Sets it for every later call with this model (not while another thread decomposes with it). */
 hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode);
 
-
 /* Decomposes `count` aligned face images (1-4 channels are converted to RGB; any size: each is
  * resized to the model size), in batches of up to 4. Results are at the model size; out[i] is
  * filled for images[i] (free each with hd_decomposition_free); on failure nothing is left
@@ -511,8 +510,7 @@ hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out);
 /* The face's own light, as the ratio rule takes it (hd_face_light with HD_SOURCE_FIT: the fit of
  * the predicted shading on the predicted normals, pulled toward its best ambient + distant light;
- * over the whole texture without the face regions). decompose's light stays
- * L-Net's. */
+ * over the whole texture without the face regions). decompose's light stays L-Net's. */
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
 /* The same with a mask (1 channel, any size; NULL: all ones) and a choice of source. */
 hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const hd_image *mask, hd_source_light source,
