@@ -69,8 +69,6 @@ typedef enum hd_status {
 
 /* The reason for the last failure on this thread ("" if none). */
 const char *hd_error(void);
-/* A short name for a status code ("format error", ...). */
-const char *hd_status_name(hd_status status);
 /* Every output file is written to a temporary name and renamed into place, so it appears whole
  * or not at all. By default each is also fsynced before the rename (durable across power loss);
  * bulk writers (data generation, batch decomposition) may turn that off for pictures with
@@ -79,7 +77,6 @@ void hd_set_durable_writes(int on);
 /* Number of OpenMP threads the library uses inside each call (0 = the OpenMP default), for calls
  * from every thread (decompose and align apply it on the calling thread). */
 void hd_set_threads(int threads);
-int hd_threads(void);
 
 /* ---------------------------------------------------------------- images (src/io) */
 
@@ -90,7 +87,6 @@ int hd_threads(void);
  * HDNET_MAX_PIXELS, or what hd_set_max_pixels set (0 restores the default). */
 #define HD_DEFAULT_MAX_PIXELS 100000000LL
 void hd_set_max_pixels(long long pixels);
-long long hd_max_pixels(void);
 
 typedef struct hd_image {
     int width, height, channels;
@@ -101,12 +97,10 @@ typedef struct hd_image {
 hd_status hd_image_alloc(hd_image *img, int width, int height, int channels);
 void hd_image_free(hd_image *img);
 /* Reads PNG (8/16 bit gray, gray+alpha, RGB, RGBA, palette), JPEG or PFM, chosen by the file's
- * magic bytes. Channels as stored (palette expands to RGB or RGBA). A JPEG is turned upright by
- * its EXIF orientation (tag 0x0112: mirrored and rotated as the tag says it is to be shown; 5-8
- * swap width and height), so every caller sees the photo as a viewer shows it. */
-hd_status hd_image_read(const char *path, hd_image *img);
-/* Reads and converts to `channels` (1: luma 0.299/0.587/0.114, 3: RGB with alpha dropped and
- * gray replicated). */
+ * magic bytes, and converts to `channels` (1: luma 0.299/0.587/0.114, 3: RGB with alpha dropped
+ * and gray replicated). A JPEG is turned upright by its EXIF orientation (tag 0x0112: mirrored and
+ * rotated as the tag says it is to be shown; 5-8 swap width and height), so every caller sees the
+ * photo as a viewer shows it. */
 hd_status hd_image_read_as(const char *path, int channels, hd_image *img);
 /* Converts between 1, 2, 3 and 4 channels as hd_image_read_as does; dst is allocated. */
 hd_status hd_image_convert(const hd_image *src, int channels, hd_image *dst);
@@ -117,14 +111,6 @@ hd_status hd_image_check_finite(const hd_image *img, const char *what);
 /* Writes PNG with 8 or 16 bits per channel (values clamped to [0, 1]); 1-4 channels. The file is
  * written to a temporary name and renamed, so a failure leaves no partial output. */
 hd_status hd_image_write_png(const char *path, const hd_image *img, int bits);
-/* How hard the PNG writer compresses. COMPACT (what hd_image_write_png does): zlib level 3 with
- * libpng's adaptive per-row filter choice. FAST: the UP filter on every row and zlib's run-length
- * strategy, 2.5-4x faster; files 3 % larger on a synthetic face's maps, 10 % on a picture sheet,
- * 3 % smaller on a photograph. STORE: no filter, zlib's stored blocks (no compression), 6x faster
- * than FAST, files 2.2x larger than FAST on a face's maps. For bulk output such as `hdnet synth`
- * (docs/performance.md, "Synthetic data"). Every effort decodes to the same samples. */
-typedef enum hd_png_effort { HD_PNG_COMPACT = 0, HD_PNG_FAST = 1, HD_PNG_STORE = 2 } hd_png_effort;
-hd_status hd_image_write_png_effort(const char *path, const hd_image *img, int bits, hd_png_effort effort);
 /* Writes PFM (exact float32), 1 or 3 channels; also atomic. */
 hd_status hd_image_write_pfm(const char *path, const hd_image *img);
 /* The formats images are written in. */
@@ -133,10 +119,8 @@ typedef enum hd_image_format {
     HD_FORMAT_JPEG,    /* 8-bit gray or RGB (alpha dropped), at a quality 1..100 (0: 95) */
     HD_FORMAT_PFM      /* exact float32, 1 or 3 channels */
 } hd_image_format;
-/* The format a path's extension names: .png, .jpg / .jpeg, .pfm (any case); anything else is
- * HD_ERR_ARG naming the path (never a PNG under another name). */
-hd_status hd_image_format_of(const char *path, hd_image_format *format);
-/* Writes img in the format of path's extension (hd_image_format_of), atomically; quality is the
+/* Writes img in the format of path's extension (.png, .jpg / .jpeg, .pfm, any case; anything else
+ * is HD_ERR_ARG naming the path, never a PNG under another name), atomically; quality is the
  * JPEG quality (1..100, 0 for the default 95), ignored otherwise. */
 hd_status hd_image_write(const char *path, const hd_image *img, int quality);
 /* hd_image_write(path, img, 0): PNG, JPEG or PFM by extension. */
@@ -154,7 +138,8 @@ typedef struct hd_image_info {
     int palette;        /* 1 for a palette PNG */
     int orientation;    /* the EXIF orientation applied (JPEG; 1: none), width and height after it */
 } hd_image_info;
-/* hd_image_read that also describes the file; info may be NULL. */
+/* Reads as stored (channels as in the file; palette expands to RGB or RGBA) and describes the file;
+ * info may be NULL. */
 hd_status hd_image_read_info(const char *path, hd_image *img, hd_image_info *info);
 /* Images in memory, for servers and bindings that never touch files. hd_image_decode reads a PNG,
  * JPEG or PFM held in data[0..size) exactly as hd_image_read_info reads a file (magic bytes, EXIF
@@ -219,21 +204,12 @@ typedef struct hd_safetensors {
  * against the file size before any data is touched. */
 hd_status hd_safetensors_read(const char *path, hd_safetensors *st);
 void hd_safetensors_free(hd_safetensors *st);
-const hd_tensor *hd_safetensors_find(const hd_safetensors *st, const char *name);
-/* The metadata value for key, or NULL. */
-const char *hd_safetensors_meta(const hd_safetensors *st, const char *key);
-/* Writes tensors (F32) and string metadata to a temporary file, fsyncs and renames it. */
-hd_status hd_safetensors_write(const char *path, const hd_tensor *tensors, int count,
-                               const char *const *meta_keys, const char *const *meta_values,
-                               int meta_count);
 
 /* ---------------------------------------------------------------- lighting (src/light) */
 
 #define HD_SH_COEFFS 9
 #define HD_LIGHT_PRESETS 7
 
-/* The 9 basis values b_k(n) of SPEC section 2 for a camera-frame normal n. */
-void hd_sh_basis(const float normal[3], float basis[HD_SH_COEFFS]);
 /* s(n) = sum_k l_k b_k(n). */
 float hd_sh_shade(const float light[HD_SH_COEFFS], const float normal[3]);
 /* Shading of npix planar normals (x[npix], y[npix], z[npix]); where mask (may be NULL) is <= 0
@@ -244,18 +220,6 @@ void hd_sh_shading_map(const float *normal, const float *mask, int npix,
  * precision through the ridged 9x9 normal equations. mask may be NULL (all ones). */
 hd_status hd_sh_fit(const float *normal, const float *shading, const float *mask, int npix,
                     float light[HD_SH_COEFFS]);
-/* The same pulled toward a prior light: argmin_l sum_p m_p (b(n_p).l - s_p)^2 + strength *
- * (sum_p m_p) * |l - prior|^2 (strength >= 0; 0: hd_sh_fit; prior NULL: the zero light). With
- * no pixel in the mask the answer is the prior (when strength > 0). */
-hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
-                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS]);
-/* The best light of hd_light_from_direction's family (an ambient level plus one distant light
- * of intensity >= 0, from within 100 degrees of the viewer) for the masked shading: argmin over
- * that family of sum_p m_p (b(n_p).l - s_p)^2. A face's normals fill only part of the sphere, so a free 9-number
- * fit swings the coefficients they hardly see; this fit has 4 numbers, which they pin down. With
- * no pixel in the mask the answer is the zero light. */
-hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
-                         float light[HD_SH_COEFFS]);
 /* Light files: 9 numbers, DPR order. Errors name the file and line. */
 /* Largest |coefficient| a light file may hold: the shading of such a light (at most about
  * 10 x HD_LIGHT_MAX_COEFF) and everything computed from it stay far from float overflow. */
@@ -326,18 +290,12 @@ typedef struct hd_decomposition {
 
 /* What hd_model_decompose does about the camera's colour cast. OFF (the default): the input goes
  * to the network as it is. EYES: the input's tint is read from the whites of its eyes
- * (hd_eye_white_balance) and divided out before the network sees it: for photos with a strong cast
+ * (src/model/white_balance.c) and divided out before the network sees it: for photos with a strong cast
  * (a warm white balance: albedo error 0.072 -> 0.048 on synthetic faces), at a cost on blurred or
  * JPEG-compressed faces of neutral balance (docs/usage.md, "White balance"). */
 typedef enum { HD_WHITE_BALANCE_OFF = 0, HD_WHITE_BALANCE_EYES = 1 } hd_white_balance;
 /* Sets it for every later call with this model (not while another thread decomposes with it). */
 hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode);
-
-/* The colour cast of an aligned face texture (square RGB, docs/spec.md section 2) from the whites of
- * its eyes: the chroma of the brighter half of the texels inside the two eye contours against the
- * sclera's chroma in the synthetic faces, as per-channel gains of mean 1 clamped to 0.7..1.4; 1, 1, 1
- * when the eyes hold fewer than 8 texels brighter than 0.02 (closed or masked out). */
-hd_status hd_eye_white_balance(const hd_image *texture, float tint[3]);
 
 /* Decomposes `count` aligned face images (1-4 channels are converted to RGB; any size: each is
  * resized to the model size), in batches of up to 4. Results are at the model size; out[i] is
@@ -383,13 +341,6 @@ typedef struct hd_aligned_face {
     float fit_rms;     /* root-mean-square residual of the fit, in pixels */
 } hd_aligned_face;
 
-/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
- * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
- * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
- * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
- * landmarks. The face owns its images: free with hd_aligned_face_free. */
-hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
-                        hd_aligned_face *face);
 /* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
  * aligns it at texture side `size`. *faces is an array of *count faces, largest score first.
  * When no face is found: HD_ERR_NOTFOUND ("no face found ...") with *faces NULL and *count 0. */
@@ -405,13 +356,8 @@ void hd_aligner_free(hd_aligner *aligner);
  * detector's own; out of range: left as it was). */
 void hd_aligner_set_min_score(hd_aligner *aligner, float min_score);
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count);
-/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
- * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
- * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
- * over the whole photo, which finds faces from about 7 % of its longer side up). */
-#define HD_DETECT_MIN_SCORE 0.75f
-#define HD_DETECT_MIN_FACE 40.0f
-hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
+/* Frees one face's images (the face hd_decompose_photo fills); hd_aligned_faces_free frees an
+ * array of faces (hd_aligner_run's, hd_photo_faces') and the array. */
 void hd_aligned_face_free(hd_aligned_face *face);
 void hd_aligned_faces_free(hd_aligned_face *faces, int count);
 
@@ -472,14 +418,6 @@ typedef enum hd_warp_mode {
  * NULL. A face entirely outside the photo leaves it unchanged (report->unknowns 0). */
 hd_status hd_warp_back_blend(const hd_aligned_face *face, const hd_image *texture, hd_warp_mode mode,
                              double tolerance, hd_image *photo, hd_poisson_report *report);
-/* hd_align_face, hd_warp_back and hd_warp_back_blend read the canonical mesh once per process (at
- * their first call; each file found by the data search path is read once) and then share it,
- * read-only, between calls and threads; an aligner reads its own at hd_aligner_load
- * (hd_aligner_run aligns on it) and these warp back on it. */
-hd_status hd_aligner_warp_back(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                               const hd_image *tex_mask, hd_image *warped, hd_image *coverage);
-hd_status hd_aligner_warp_back_blend(const hd_aligner *aligner, const hd_aligned_face *face, const hd_image *texture,
-                                     hd_warp_mode mode, double tolerance, hd_image *photo, hd_poisson_report *report);
 
 /* ---------------------------------------------------------------- relighting (src/apply) */
 
@@ -513,7 +451,7 @@ typedef enum hd_source_light {
     HD_SOURCE_LNET
 } hd_source_light;
 
-/* HD_SOURCE_FIT's pull toward the face's lobe fit (hd_sh_fit_lobe; hd_sh_fit_toward's strength). */
+/* HD_SOURCE_FIT's pull toward the face's best ambient + distant light (the strength of the prior). */
 #define HD_SOURCE_PRIOR 0.1f
 /* The ratio rule's guard g = HD_RATIO_GUARD x the face's mean source shading over its skin. */
 #define HD_RATIO_GUARD 0.01f
@@ -538,7 +476,7 @@ typedef struct hd_apply_request {
  * regions a face model does not explain, the face below the nose weighted a quarter (an
  * expression moves it, the light does not; docs/usage.md, "The source light"): the weighted
  * least-squares light pulled (HD_SOURCE_PRIOR) toward the best ambient + distant light
- * (hd_sh_fit_lobe) of the same weighted shading. The weight assumes the decomposition is in the
+ * (src/light/fit.c) of the same weighted shading. The weight assumes the decomposition is in the
  * aligned texture layout (docs/spec.md section 2), as every decomposition hd_model_decompose
  * makes is. */
 hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
@@ -552,7 +490,7 @@ typedef struct hd_apply_result {
     hd_image delit, self;                  /* when asked for */
     int nfaces;
     float (*face_light)[HD_SH_COEFFS];     /* nfaces: each face's own light (the request's source) */
-    struct hd_aligned_face *faces;         /* a photo's nfaces faces as aligned; NULL for a texture */
+    hd_aligned_face *faces;                /* a photo's nfaces faces as aligned; NULL for a texture */
 } hd_apply_result;
 
 /* A photo (3 channels): every face aligned, decomposed once, changed as asked. No face:
@@ -562,9 +500,6 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
 /* An aligned face texture (3 channels) with its mask (1 channel, any size; NULL: all ones). */
 hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_image *mask,
                            const hd_apply_request *request, hd_apply_result *result);
-/* The same on a decomposition already made (d of `texture`; source: the face's light). */
-hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition *d, const hd_image *mask,
-                                 const hd_apply_request *request, hd_apply_result *result);
 void hd_apply_result_free(hd_apply_result *result);
 
 /* Grey-light shortcuts with a model, texture in, texture out: each decomposes its aligned face
@@ -573,12 +508,9 @@ void hd_apply_result_free(hd_apply_result *result);
 hd_status hd_relight_face(hd_model *model, const hd_image *image, const hd_image *mask,
                           const float light[HD_SH_COEFFS], hd_brightness brightness, hd_image *out);
 hd_status hd_delight_face(hd_model *model, const hd_image *image, const hd_image *mask, hd_image *out);
-hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_image *mask,
-                           const hd_image *ref, hd_brightness brightness, hd_image *out);
 /* The face's own light, as the ratio rule takes it (hd_face_light with HD_SOURCE_FIT: the fit of
- * the predicted shading on the predicted normals, pulled toward its best ambient + distant light
- * (hd_sh_fit_lobe); over the whole texture without the face regions). decompose's light stays
- * L-Net's. */
+ * the predicted shading on the predicted normals, pulled toward its best ambient + distant light;
+ * over the whole texture without the face regions). decompose's light stays L-Net's. */
 hd_status hd_estimate_light(hd_model *model, const hd_image *image, float light[HD_SH_COEFFS]);
 /* The same with a mask (1 channel, any size; NULL: all ones) and a choice of source. */
 hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const hd_image *mask, hd_source_light source,
@@ -598,14 +530,11 @@ hd_status hd_face_mask_read(const char *image_path, const char *fallback, int wi
 typedef enum hd_input_kind { HD_INPUT_PHOTO = 0, HD_INPUT_TEXTURE } hd_input_kind;
 hd_input_kind hd_input_kind_of(const char *path);
 
-/* Faces of a photo are unwarped at max(HD_PHOTO_TEXTURE_SIZE, model size) texels a side, so the
- * relit texture keeps more detail than the model's own size. */
-#define HD_PHOTO_TEXTURE_SIZE 256
-int hd_photo_texture_size(const hd_model *model);
-/* Every face of `photo` aligned at hd_photo_texture_size (hd_aligner_run); no face at all is
+/* Every face of `photo` aligned (hd_aligner_run) at max(256, model size) texels a side, so the
+ * relit texture keeps more detail than the model's own size; no face at all is
  * HD_ERR_NOTFOUND ("no face found"). Free with hd_aligned_faces_free. */
 hd_status hd_photo_faces(hd_aligner *aligner, const hd_model *model, const hd_image *photo,
-                         struct hd_aligned_face **faces, int *count);
+                         hd_aligned_face **faces, int *count);
 /* Relights every face of a photo (3 channels) under each of `count` grey lights (count may be 0)
  * by the ratio rule: hd_apply_photo with HD_RULE_RATIO, relit[i] a copy of the photo with every
  * face changed, feathered from its edge. delit (may be NULL) gets the delit faces likewise. *nfaces (may be NULL) gets the faces done.
@@ -623,7 +552,7 @@ hd_status hd_estimate_face_light_photo(hd_model *model, hd_aligner *aligner, con
 /* The decomposition (at the model's size, in the aligned texture space) of the best-scoring face
  * of a photo; face (may be NULL) receives that face (free with hd_aligned_face_free). */
 hd_status hd_decompose_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_decomposition *d,
-                             struct hd_aligned_face *face);
+                             hd_aligned_face *face);
 /* Every face of photo relit under the light estimated for the best face of reference (a photo):
  * hd_estimate_light_photo then hd_relight_photo, as `hdnet transfer` does with photos. */
 hd_status hd_transfer_photo(hd_model *model, hd_aligner *aligner, const hd_image *photo, const hd_image *reference,
@@ -635,7 +564,7 @@ hd_status hd_transfer_photo(hd_model *model, hd_aligner *aligner, const hd_image
  * 1 where a face's visible part lands, else 0); where faces overlap, the better-scoring one. */
 typedef struct hd_photo_maps {
     int nfaces;
-    struct hd_aligned_face *faces;
+    hd_aligned_face *faces;
     hd_decomposition *d;
     hd_image recon, albedo, shading, normal, mask;
 } hd_photo_maps;
@@ -646,210 +575,6 @@ void hd_photo_maps_free(hd_photo_maps *maps);
  * with input | albedo | shading | normal | reconstruction. */
 hd_status hd_sheet_put_decomposition(hd_sheet *sheet, int row, const hd_image *input,
                                      const hd_decomposition *d);
-
-/* ---------------------------------------------------------------- synthetic faces (src/synth) */
-
-/* A generator of faces with full ground truth, rendered straight into the aligned texture space
- * (docs/synthetic-data.md). Everything is a pure function of (seed, subject, image): the same
- * set comes out whatever the thread count. */
-typedef struct hd_synth hd_synth;                 /* per texture size: mesh, UV raster, region maps */
-typedef struct hd_synth_subject hd_synth_subject; /* one identity: shape, fine detail, albedo */
-
-typedef struct hd_synth_face {
-    hd_image image;     /* 3: albedo * shading, clamped to [0, 1]; 0 outside the mask */
-    hd_image mask;      /* 1: 1 on visible face texels, else 0 */
-    hd_image normal;    /* 3: coarse normals (the canonical mesh in the image's pose, with the fit error) */
-    hd_image albedo;    /* 3: ground-truth albedo in [0, 1] */
-    hd_image normal_gt; /* 3: ground-truth unit normals (identity shape + fine detail, posed) */
-    hd_image shading;   /* 1: ground-truth shading s(normal_gt, light), not clamped */
-    float light[HD_SH_COEFFS];
-    float yaw_deg, pitch_deg, roll_deg; /* the head's pose */
-    float coarse_yaw_deg, coarse_pitch_deg, coarse_roll_deg; /* the pose of the coarse normals' fit */
-} hd_synth_face;
-
-hd_status hd_synth_create(int size, hd_synth **synth);
-void hd_synth_free(hd_synth *synth);
-int hd_synth_size(const hd_synth *synth);
-/* The identity of subject `subject` for this seed (deterministic). */
-hd_status hd_synth_subject_make(const hd_synth *synth, uint64_t seed, int subject, hd_synth_subject **out);
-void hd_synth_subject_free(hd_synth_subject *subject);
-/* Image `image` of a subject: its own light and (with pose_jitter_deg > 0) pose, drawn from the
- * stream (seed, subject, image). The coarse normals model a 3DMM fit: the canonical mesh in the
- * image's pose (coarse_error_deg 0), or with a random zero-mean fit error of size E =
- * coarse_error_deg: yaw, pitch and roll off by E/2 (standard deviation), the mesh deformed like a
- * random identity, and a smooth tilt field of E RMS (docs/synthetic-data.md).
- * `out` must be zero-initialised ({0}) or hold the images of an earlier call, whose buffers are
- * then reused; free it with hd_synth_face_free. */
-#define HD_SYNTH_COARSE_ERROR_DEFAULT 20.0f /* hdnet synth's default: about 23 degrees of error */
-#define HD_SYNTH_COARSE_ERROR_MAX 40.0f
-hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
-                          float pose_jitter_deg, float coarse_error_deg, hd_synth_face *out);
-void hd_synth_face_free(hd_synth_face *face);
-/* Writes the SPEC section 5 files of one face as dir/NAME.png, NAME.mask.png, NAME.normal.png,
- * NAME.albedo.png, NAME.normal_gt.png, NAME.shading.png (16 bit, s/2), NAME.shading.pfm and
- * NAME.light.txt (each atomically). */
-hd_status hd_synth_face_write(const char *dir, const char *name, const hd_synth_face *face);
-/* The same with the PNGs at a chosen effort (hd_synth_face_write: HD_PNG_FAST). */
-hd_status hd_synth_face_write_effort(const char *dir, const char *name, const hd_synth_face *face,
-                                     hd_png_effort effort);
-
-/* Camera effects on a rendered face's image (docs/synthetic-data.md), the ground truth untouched:
- * a coloured light (image = clamp(A s gain), a warm or cool tint of up to 30 %), defocus blur
- * (Gaussian, sigma 0.3-1.5 texels, normalised inside the mask), sensor noise (read noise
- * 0.003-0.02 plus shot noise), the camera's white balance (another tint of up to 30 %) and JPEG
- * at quality 40-95, in that order; each enabled effect applies with `probability`, its draws from
- * the image's stream (seed, subject, image), the same whichever effects are enabled. */
-enum {
-    HD_SYNTH_CAMERA_LIGHT_COLOUR = 1,
-    HD_SYNTH_CAMERA_BLUR = 2,
-    HD_SYNTH_CAMERA_NOISE = 4,
-    HD_SYNTH_CAMERA_WHITE_BALANCE = 8,
-    HD_SYNTH_CAMERA_JPEG = 16,
-    HD_SYNTH_CAMERA_ALL = 31
-};
-typedef struct hd_synth_camera {
-    float probability; /* of each enabled effect, [0, 1]; 0: none */
-    unsigned effects;  /* HD_SYNTH_CAMERA_* flags */
-} hd_synth_camera;
-/* What was applied to one image (applied: flags; the parameters of those applied). */
-typedef struct hd_synth_camera_record {
-    unsigned applied;
-    float light_gain[3], blur_sigma, noise_read, noise_shot, wb_gain[3];
-    int jpeg_quality;
-} hd_synth_camera_record;
-/* Applies the effects to face->image after hd_synth_render of the same (subject, image); rec may be NULL. */
-hd_status hd_synth_camera_apply(hd_synth_face *face, const hd_synth_camera *camera, uint64_t seed, int subject,
-                                int image, hd_synth_camera_record *rec);
-
-typedef struct hd_synth_options {
-    int subjects, per_subject, size;
-    uint64_t seed;
-    float pose_jitter_deg;  /* maximum yaw, pitch and roll, degrees (0: frontal) */
-    float coarse_error_deg; /* the coarse normals' fit error (hd_synth_render); 0: exact pose, no shape error */
-    int png_store;          /* 0: the PNGs at HD_PNG_FAST; 1: HD_PNG_STORE (uncompressed: faster, larger) */
-    hd_synth_camera camera; /* camera effects on the images (probability 0: none) */
-} hd_synth_options;
-/* Called now and then with the number of images written (may be NULL). */
-typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);
-/* Writes a whole set: out/subject_XXXX/YYYY.* for every subject and image, plus out/preview.sheet.png
- * (a sheet of the first subjects). Parallel over images with OpenMP (hd_set_threads). */
-hd_status hd_synth_write_set(const char *out, const hd_synth_options *options,
-                             hd_synth_progress_fn progress, void *ctx);
-
-
-/* ---------------------------------------------------------------- evaluation (src/eval) */
-
-/* SPEC section 7 metrics, pooled over every pixel with mask > 0.5 of a set (the accumulators:
- * src/eval/metrics.h). */
-#define HD_EVAL_THRESHOLDS 3 /* normal error thresholds: 20, 25, 30 degrees */
-typedef struct hd_eval_row {
-    char name[64];
-    int has_normal, has_albedo, has_recon, has_shading, has_light; /* columns this row fills */
-    double normal_mean, normal_std, normal_under[HD_EVAL_THRESHOLDS]; /* degrees; percent */
-    double albedo_mae, albedo_rmse, recon_mae, recon_rmse, shading_mae;
-    double albedo_si_mae; /* scale-invariant albedo MAE: each image's albedo times its best scale */
-    double light_accuracy; /* percent */
-} hd_eval_row;
-
-/* A whole evaluation: the set's ground truth (SPEC section 5 folders with NAME.albedo.png,
- * NAME.normal_gt.png, NAME.shading.pfm or .png, NAME.light.txt, NAME.mask.png) scored against
- * predictions, read from pred_dir in `hdnet decompose`'s layout (PRED/SUBJECT/NAME.albedo.png,
- * .shading.pfm or .shading.png (s/2), .normal.png, .light.txt, .recon.png) or made by `model`
- * (exactly one of the two). Row 0 is the prediction; then the baselines: the coarse normals
- * (NAME.normal.png) as normals; the least-squares light of the true shading on the coarse normals
- * (its light and shading); the per-image mean colour of the input as albedo. An image whose files
- * are missing or broken is reported through warn (may be NULL) and skipped. */
-#define HD_EVAL_MAX_ROWS 4
-typedef struct hd_eval_report {
-    int nrows;
-    hd_eval_row rows[HD_EVAL_MAX_ROWS];
-    long images, skipped;
-    int kmeans_k;
-    hd_source_light source; /* the prediction's light that the lighting classification scored */
-} hd_eval_report;
-hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
-                      void (*warn)(const char *message));
-/* hd_eval_run with the prediction's light taken from `source`: HD_SOURCE_LNET (hd_eval_run's) the
- * prediction's own light (L-Net's, or PRED/.../NAME.light.txt); HD_SOURCE_FIT the face's light
- * fitted to the predicted shading on the predicted normals (hd_face_light, over the set's mask),
- * the light the relighting rule takes as the face's own. Only the light column changes. */
-hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
-                            hd_eval_report *report, void (*warn)(const char *message));
-/* The report as JSON: the text (malloc'ed; NULL with the reason set when out of memory), or
- * written to path atomically. */
-char *hd_eval_report_json(const hd_eval_report *report);
-hd_status hd_eval_report_write_json(const char *path, const hd_eval_report *report);
-
-/* Relighting measured on real photos without ground truth (src/eval/photo_metrics.c, docs/usage.md
- * "Measuring relighting"; the metrics themselves: src/eval/photo_metrics.h). */
-/* A whole run over a folder of people (one subfolder each, photos inside; NAME.tem beside a photo
- * gives its pupils as points 0 and 1, else the eye contours' centres): every photo relit under the
- * seven presets (brightness kept) and under its own estimated light, by `rule`. Per photo, the
- * means over the presets of chroma, detail, glow, seam and lum (the face's mean luminance ratio),
- * self (the MAE of the own-light result against the input over the pixels any preset changed),
- * and, on a person's first photo, light (hd_light_difference of the first two photos' lights). */
-/* coverage: the sum over the presets of the change on the skin in a ring outside the face's outline
- * over the sum of the change on its cheeks (0: a mask, about 1: the whole head); band: the mean
- * over the presets of the forehead's largest jump of the change over its median step (issue 36;
- * src/eval/photo_coverage.c). */
-enum { HD_PM_CHROMA, HD_PM_DETAIL, HD_PM_GLOW, HD_PM_SEAM, HD_PM_SELF, HD_PM_LIGHT, HD_PM_LUM, HD_PM_COVERAGE,
-       HD_PM_BAND, HD_PHOTO_METRICS };
-enum { HD_PG_ALL, HD_PG_TUNING, HD_PG_HELDOUT };
-typedef struct hd_photo_row {
-    char name[128];              /* PERSON/NAME */
-    int heldout;                 /* the person is in the held-out list */
-    int pupils_from_tem;
-    double v[HD_PHOTO_METRICS];  /* NAN where not measured */
-} hd_photo_row;
-typedef struct hd_photo_eval {
-    int count, skipped;
-    hd_photo_row *rows;
-} hd_photo_eval;
-const char *hd_photo_metric_name(int metric);
-/* heldout_path (may be NULL): a file of held-out person IDs (blank- or line-separated, '#'
- * comments). limit > 0: only the first `limit` people. A photo that fails (unreadable, no face)
- * is reported through warn and skipped. */
-/* How the photos are relit: the rule, the face's own light, the guard (<= 0: HD_RATIO_GUARD). */
-typedef struct hd_photo_rule {
-    hd_relight_rule rule;
-    hd_source_light source;
-    float guard;
-} hd_photo_rule;
-hd_status hd_photo_eval_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_photo_rule *how,
-                            const char *heldout_path, int limit, hd_photo_eval *eval, void (*warn)(const char *message));
-void hd_photo_eval_free(hd_photo_eval *eval);
-/* The median of a metric over a group (HD_PG_*) and the row of its worst photo (-1 if none). */
-hd_status hd_photo_eval_summary(const hd_photo_eval *eval, int group, int metric, double *median, int *worst);
-/* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
-char *hd_photo_eval_json(const hd_photo_eval *eval, const hd_photo_rule *how);
-hd_status hd_photo_eval_write_json(const char *path, const hd_photo_eval *eval, const hd_photo_rule *how);
-
-/* Relighting against the truth on a paired synthetic set (src/eval/pair_eval.c): image i of each
- * subject relit under the true light of the subject's next image j (cyclically) and compared with
- * image j over both masks (and both true-normal masks), colours clamped to [0, 1]. Rows: the input
- * unchanged; the exact decomposition (true albedo x s(true N, l_j)); the rule with the true
- * normals and light; the model under the ratio rule; the model under the paper's rule (all at
- * the true light's level: HD_BRIGHTNESS_FREE). MAE and RMSE over pixels x channels, PSNR from the
- * pooled MSE, SSIM (Gaussian window of 1.5 pixels, per channel, the mean over masked pixels) as
- * the mean over pairs. */
-enum { HD_PAIR_INPUT, HD_PAIR_EXACT, HD_PAIR_EXACT_RATIO, HD_PAIR_MODEL, HD_PAIR_PAPER, HD_PAIR_ROWS };
-typedef struct hd_pair_row {
-    char name[64];
-    double abs_sum, sq_sum, ssim_sum;
-    long n, pairs;
-    double mae, rmse, psnr, ssim;
-} hd_pair_row;
-typedef struct hd_pair_report {
-    hd_pair_row rows[HD_PAIR_ROWS];
-    long pairs, skipped;
-} hd_pair_report;
-/* how: the model rows' source light and the guard of every ratio row (rule ignored; the exact
- * ratio takes the true light as the source). */
-hd_status hd_pair_eval_run(const char *dir, hd_model *model, const hd_photo_rule *how, hd_pair_report *report,
-                           void (*warn)(const char *message));
-/* As JSON, as text (malloc'ed, NULL with the reason set on failure) or written to path atomically. */
-char *hd_pair_report_json(const hd_pair_report *report);
-hd_status hd_pair_report_write_json(const char *path, const hd_pair_report *report);
 
 #ifdef __cplusplus
 }

@@ -11,7 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "hdnet_tool.h"
+#include "../tools/hdnet_tool.h"
 
 int main(int argc, char **argv)
 {

@@ -13,6 +13,9 @@
 #include "mesh/mesh.h"
 #include "test_models.h"
 #include "align/photo_raster.h"
+#include "io/image_io.h"
+#include "align/align.h"
+#include "warp/warp.h"
 
 static hd_mesh canonical;
 

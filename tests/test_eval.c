@@ -8,6 +8,8 @@
 #include "test_models.h"
 #include "core/core.h"
 #include "eval/metrics.h"
+#include "synth/synth.h"
+#include "eval/eval.h"
 
 static void test_normals(void)
 {

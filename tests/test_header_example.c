@@ -6,6 +6,7 @@
 #include "test.h"
 
 #include "header_example.inc"
+#include "io/image_io.h"
 
 int main(void)
 {

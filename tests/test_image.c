@@ -12,6 +12,7 @@
 #include <unistd.h>
 #include "test.h"
 #include "core/core.h"
+#include "io/image_io.h"
 
 static void fill_random(hd_image *img, hd_rng *rng)
 {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 #include "test.h"
 #include "hdnet.h"
+#include "io/image_io.h"
 
 static unsigned char *slurp(const char *path, size_t *size)
 {

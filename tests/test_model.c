@@ -87,7 +87,7 @@ static void test_paths(void)
     for (int k = 0; k < 2; k++) {
         hd_net *n = nets[k];
         hd_disc *D = discs[k];
-        hd_net_forward(n);
+        hd_net_forward(n, NULL);
         hd_net_zero_grad(n);
         hd_rng g;
         hd_rng_seed(&g, 78, 1); /* the same output gradients for both */
@@ -95,15 +95,15 @@ static void test_paths(void)
         for (size_t i = 0; i < B * HW; i++) n->d_shading[i] = hd_rng_range(&g, -1.0f, 1.0f);
         for (size_t i = 0; i < B * 3 * HW; i++) n->d_normal[i] = hd_rng_range(&g, -1.0f, 1.0f);
         for (size_t i = 0; i < B * HD_SH_COEFFS; i++) n->d_light[i] = hd_rng_range(&g, -1.0f, 1.0f);
-        hd_net_backward(n, HD_TRAIN_ALL);
+        hd_net_backward(n, HD_TRAIN_ALL, NULL);
         /* the discriminator on the albedo */
         memcpy(D->in, n->albedo, B * 3 * HW * sizeof(float));
-        hd_disc_forward(D);
+        hd_disc_forward(D, NULL);
         size_t np = (size_t)B * hd_disc_patches(D);
         for (size_t i = 0; i < np; i++) D->d_logit[i] = hd_rng_range(&g, -1.0f, 1.0f);
         memset(D->d_in, 0, B * 3 * HW * sizeof(float));
         memset(D->grads, 0, D->table.total * sizeof(float));
-        hd_disc_backward(D, 1, 1);
+        hd_disc_backward(D, 1, 1, NULL);
     }
     struct { const char *name; const float *a, *b; size_t n; } cmp[] = {
         {"albedo", fast.albedo, ref.albedo, B * 3 * HW},
@@ -143,11 +143,10 @@ static void test_paths(void)
     memcpy(keep, fast.normal, nout * sizeof(float));
     hd_net_profile prof;
     memset(&prof, 0, sizeof prof);
-    fast.profile = &prof;
+    hd_net_pass profiled = {.profile = &prof};
     double t0 = hd_seconds();
-    hd_net_forward(&fast);
+    hd_net_forward(&fast, &profiled);
     double dt = hd_seconds() - t0;
-    fast.profile = NULL;
     CHECK(memcmp(keep, fast.normal, nout * sizeof(float)) == 0);
     double sum = 0;
     for (int k = 0; k < HD_NET_STAGES; k++) {

@@ -7,6 +7,7 @@
 #include <unistd.h>
 #include "test.h"
 #include "core/core.h"
+#include "io/safetensors.h"
 
 static void test_round_trip(void)
 {

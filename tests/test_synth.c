@@ -13,6 +13,8 @@
 #include "test.h"
 #include "test_models.h"
 #include "core/core.h"
+#include "io/image_io.h"
+#include "synth/synth.h"
 
 
 static long long file_size_of(const char *path)

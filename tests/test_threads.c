@@ -12,6 +12,8 @@
 #include "test.h"
 #include "hdnet.h"
 #include "model/checkpoint.h"
+#include "core/core.h"
+#include "align/align.h"
 
 #define THREADS 4
 #define CALLS 25

@@ -15,6 +15,8 @@
 #include "train/train.h"
 #include "model/checkpoint.h"
 #include "train/train_log.h"
+#include "io/image_io.h"
+#include "io/safetensors.h"
 
 /* ---- a synthetic pair: one smooth albedo on a sphere-like face under two lights */
 
@@ -148,7 +150,7 @@ static void check_gradients(hd_trainer *t, const char *what, int disc, int by_ne
     size_t HW = (size_t)t->net.H * t->net.W;
     float *held = malloc((size_t)t->net.B * HW * sizeof(float));
     memcpy(held, t->net.shading, (size_t)t->net.B * HW * sizeof(float));
-    t->net.n_input_hold = held;
+    t->pass.n_input_hold = held;
     t->losses.hold_light_hat = 1;
     /* the size of a typical directional derivative, for the absolute tolerance */
     double scale = 0;
@@ -169,7 +171,7 @@ static void check_gradients(hd_trainer *t, const char *what, int disc, int by_ne
         int step = getenv("HD_CHECK") ? 6 : 2;
         for (int i = 0; i + 1 < tab->count; i += step) check_direction(t, what, disc, i, i + 1, eps, grad, scale, kinked);
     }
-    t->net.n_input_hold = NULL;
+    t->pass.n_input_hold = NULL;
     t->losses.hold_light_hat = 0;
     free(held);
     free(grad);

@@ -17,6 +17,7 @@
 #include "source_dir.h"
 #include "core/core.h"
 #include "video/video.h"
+#include "io/image_io.h"
 #if HD_HAVE_FFMPEG
 #include <libavformat/avformat.h>
 #endif

@@ -1,7 +1,7 @@
 /* bench_hdnet.c: the whole-network section of `hdnet bench`: HD-Net's forward per image (the
  * three Common-Nets, conv_in and L-Net), one training step per pair (forward, the seven losses,
  * backward, the discriminator's loss and both Adam updates) at a->size and a->width, each the best
- * of a few timed runs after a warm-up, each also split by stage (hd_net.profile: conv_in, A-, S-,
+ * of a few timed runs after a warm-up, each also split by stage (hd_net_pass.profile: conv_in, A-, S-,
  * N-, L-Net, the output heads, the discriminator; the step's Adam and "losses and the rest"), and
  * memory: the bytes we count for training at a->batch pairs and at the paper's batch of 8 (whole,
  * and in micro-batches of 2), and the resident set measured during one such micro-batched step. */
@@ -116,13 +116,13 @@ int bench_hdnet(const bench_args *a)
     if (hd_net_create(&net, &cfg, images, HD_NET_INFER, HD_CONV_AUTO) != HD_OK) goto fail;
     hd_train_init_params(&cfg, 1, net.params, NULL);
     for (size_t i = 0; i < (size_t)images * 3 * size * size; i++) net.input[i] = 0.25f + 0.5f * (float)(i % 97) / 97;
-    hd_net_forward(&net); /* warm-up */
+    hd_net_forward(&net, NULL); /* warm-up */
     double fwd = 1e30;
-    net.profile = &prof;
+    hd_net_pass profiled = {.profile = &prof};
     for (int r = 0; r < repeats; r++) {
         memset(&prof, 0, sizeof prof);
         double t0 = hd_seconds();
-        hd_net_forward(&net);
+        hd_net_forward(&net, &profiled);
         double dt = hd_seconds() - t0;
         fwd = dt < fwd ? dt : fwd;
         profile_min(&fwd_prof, &prof, r == 0);
@@ -139,7 +139,7 @@ int bench_hdnet(const bench_args *a)
     hd_step_result res;
     if (hd_trainer_step(&t, &res, NULL) != HD_OK) goto fail; /* warm-up */
     double step = 1e30;
-    t.net.profile = t.disc.profile = &prof;
+    t.pass.profile = &prof;
     for (int r = 0; r < step_repeats; r++) {
         memset(&prof, 0, sizeof prof);
         double t0 = hd_seconds();
@@ -148,7 +148,7 @@ int bench_hdnet(const bench_args *a)
         step = dt < step ? dt : step;
         profile_min(&step_prof, &prof, r == 0);
     }
-    t.net.profile = t.disc.profile = NULL;
+    t.pass.profile = NULL;
     /* both Adam updates alone, as the step makes them */
     double adam = 1e30;
     for (int r = 0; r < step_repeats; r++) {

@@ -253,45 +253,135 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
     return CLI_EXIT_OK;
 }
 
+/* What `hdnet eval` was asked: its options, DATA, and the relighting they describe. */
+typedef struct eval_args {
+    const char *model_path, *pred, *out, *rule, *heldout, *sheets, *source, *white_balance, *ml_lights;
+    int threads, quiet, photos, pairs, limit, json, multilight, refs, free_level;
+    float guard;
+    const char *data;
+    hd_photo_rule how; /* from rule, source and guard (eval_check) */
+} eval_args;
+
+/* The checks every kind of evaluation shares, in the order the messages were always given; 0 or
+ * the exit code. */
+static int eval_check(const cli_cmd_spec *spec, eval_args *a, const char *surplus)
+{
+    if (surplus && a->json) /* the old --json OUT */
+        return cli_usage_error(spec, "--json prints the report on stdout; write it to a file with -o %s", surplus);
+    if (surplus) return cli_usage_error(spec, "one DATA folder, not also '%s'", surplus);
+    if (a->model_path && a->pred) return cli_usage_error(spec, "-m MODEL and --pred DIR exclude each other");
+    int code = cli_opts_common(spec, a->threads, 1.0f);
+    if (code) return code;
+    if (a->photos + a->pairs + a->multilight > 1)
+        return cli_usage_error(spec, "--photos, --pairs and --multilight exclude each other");
+    if ((a->ml_lights || a->refs || a->free_level) && !a->multilight)
+        return cli_usage_error(spec, "--lights, --refs and --no-keep-brightness go with --multilight");
+    a->how = (hd_photo_rule){strcmp(a->rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, a->guard};
+    if (a->source && cli_source_light_parse(spec, a->source, &a->how.source)) return CLI_EXIT_USAGE;
+    if (!(a->guard >= 0.0f && a->guard <= 10.0f)) return cli_usage_error(spec, "--guard wants 0..10, got %g", a->guard);
+    if (a->guard > 0 && !a->photos && !a->pairs && !a->multilight)
+        return cli_usage_error(spec, "--guard goes with --photos, --pairs or --multilight");
+    if (a->white_balance && (a->pairs || a->photos || a->multilight))
+        return cli_usage_error(spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
+    return 0;
+}
+
+/* --rule and --limit as --photos and --multilight take them; 0 or the exit code. */
+static int rule_limit_check(const cli_cmd_spec *spec, const eval_args *a)
+{
+    if (strcmp(a->rule, "ratio") != 0 && strcmp(a->rule, "paper") != 0)
+        return cli_usage_error(spec, "--rule wants ratio or paper, got '%s'", a->rule);
+    if (a->limit < 0) return cli_usage_error(spec, "--limit %d must be >= 0", a->limit);
+    return 0;
+}
+
+/* --multilight: its own checks, then the run. */
+static int run_multilight(const cli_cmd_spec *spec, const eval_args *a, const json_out *jo)
+{
+    if (a->pred) return cli_usage_error(spec, "--multilight relights with a model: --pred does not go with it");
+    int code = rule_limit_check(spec, a);
+    if (code) return code;
+    if (a->refs < 0 || a->refs > 16) return cli_usage_error(spec, "--refs wants 1..16, got %d", a->refs);
+    hd_ml_options o;
+    memset(&o, 0, sizeof o);
+    o.refs = a->refs, o.limit = a->limit, o.sheets = a->sheets, o.rule = a->how.rule, o.source = a->how.source;
+    o.guard = a->guard;
+    o.brightness = a->free_level ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
+    if (a->ml_lights && parse_ml_lights(spec, a->ml_lights, &o)) return CLI_EXIT_USAGE;
+    return multilight_eval(a->data, a->model_path, &o, jo);
+}
+
+/* --photos: its own checks, then the sheets or the scores. */
+static int run_photos(const cli_cmd_spec *spec, const eval_args *a, const json_out *jo)
+{
+    if (a->pred) return cli_usage_error(spec, "--photos relights with a model: --pred does not go with it");
+    int code = rule_limit_check(spec, a);
+    if (code) return code;
+    if (a->sheets) return photo_sheets(a->data, a->model_path, a->sheets);
+    return photo_eval(a->data, a->model_path, &a->how, a->heldout, a->limit, jo);
+}
+
+/* The ground-truth evaluation (SPEC section 7) of a model or of predictions. */
+static int run_ground_truth(const cli_cmd_spec *spec, const eval_args *a, const json_out *jo)
+{
+    if (a->heldout || a->limit || a->sheets || strcmp(a->rule, "ratio") != 0)
+        return cli_usage_error(spec, "--rule, --heldout, --limit and --sheets go with --photos");
+    if (a->white_balance && a->pred) return cli_usage_error(spec, "--white-balance goes with a model, not --pred");
+    int code = cli_white_balance_set(spec, a->white_balance, NULL);
+    if (code) return code;
+    hd_model *model = NULL;
+    if (!a->pred && hd_model_load(a->model_path, &model) != HD_OK) return cli_report("eval");
+    if ((code = cli_white_balance_set(spec, a->white_balance, model))) {
+        hd_model_free(model);
+        return code;
+    }
+    /* the ground-truth evaluation scores L-Net's light unless told otherwise (SPEC section 7) */
+    hd_eval_report rep;
+    hd_status st = hd_eval_run_light(a->data, a->pred, model, a->source ? a->how.source : HD_SOURCE_LNET, &rep, warn);
+    hd_model_free(model);
+    if (st != HD_OK) return cli_report("eval");
+    snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", a->pred ? "predictions" : "hdnet model");
+    if (!a->quiet && !a->json) print_table(&rep);
+    if (a->json || a->out)
+        return emit_json(jo, hd_eval_report_json(&rep), a->out ? hd_eval_report_write_json(a->out, &rep) : HD_OK);
+    return CLI_EXIT_OK;
+}
+
 int cmd_eval(int argc, char **argv)
 {
-    const char *model_path = NULL, *pred = NULL, *out = NULL, *rule = "ratio", *heldout = NULL, *sheets = NULL;
-    const char *source = NULL, *white_balance = NULL;
-    const char *ml_lights = NULL;
-    int threads = 0, quiet = 0, photos = 0, pairs = 0, limit = 0, json = 0, multilight = 0, refs = 0, free_level = 0;
-    float guard = 0.0f;
+    eval_args a = {.rule = "ratio"};
     const cli_opt opts[] = {
-        {"model", 'm', CLI_OPT_STRING, &model_path, "MODEL",
+        {"model", 'm', CLI_OPT_STRING, &a.model_path, "MODEL",
          "score this model (safetensors) on the set's images (default: the shipped hdnet-synth model)"},
-        {"pred", 0, CLI_OPT_STRING, &pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
-        {"json", 0, CLI_OPT_FLAG, &json, NULL, "print the report as JSON on stdout instead of the table"},
-        {"output", 'o', CLI_OPT_STRING, &out, "FILE.json", "also write the report as JSON to FILE.json"},
-        {"photos", 0, CLI_OPT_FLAG, &photos, NULL,
+        {"pred", 0, CLI_OPT_STRING, &a.pred, "DIR", "score predictions in hdnet decompose's layout: DIR/SUBJECT/NAME.*"},
+        {"json", 0, CLI_OPT_FLAG, &a.json, NULL, "print the report as JSON on stdout instead of the table"},
+        {"output", 'o', CLI_OPT_STRING, &a.out, "FILE.json", "also write the report as JSON to FILE.json"},
+        {"photos", 0, CLI_OPT_FLAG, &a.photos, NULL,
          "DATA is a folder of people (one folder each) of real photos: measure relighting (docs/usage.md)"},
-        {"pairs", 0, CLI_OPT_FLAG, &pairs, NULL,
+        {"pairs", 0, CLI_OPT_FLAG, &a.pairs, NULL,
          "DATA is a paired synthetic set: relight image i under the true light of image j, against j"},
-        {"multilight", 0, CLI_OPT_FLAG, &multilight, NULL,
+        {"multilight", 0, CLI_OPT_FLAG, &a.multilight, NULL,
          "DATA holds photos of faces under known point lights (lights.csv; docs/evaluation.md): measure relighting, "
          "light transfer, the light estimate and the normals against them"},
-        {"lights", 0, CLI_OPT_STRING, &ml_lights, "LIST",
+        {"lights", 0, CLI_OPT_STRING, &a.ml_lights, "LIST",
          "with --multilight: the target lights, e.g. A+025E+00,A-050E+00 (default: twelve within 70 degrees)"},
-        {"refs", 0, CLI_OPT_INT, &refs, "N", "with --multilight: references per light for the transfer (default 3)"},
-        {"no-keep-brightness", 0, CLI_OPT_FLAG, &free_level, NULL,
+        {"refs", 0, CLI_OPT_INT, &a.refs, "N", "with --multilight: references per light for the transfer (default 3)"},
+        {"no-keep-brightness", 0, CLI_OPT_FLAG, &a.free_level, NULL,
          "with --multilight: relight at the target light's own level instead of keeping the face's mean "
          "(what `hdnet relight --no-keep-brightness` does; the score ignores the level, not what clips)"},
-        {"rule", 0, CLI_OPT_STRING, &rule, "ratio|paper", "with --photos: the relighting rule (default ratio)"},
-        {"heldout", 0, CLI_OPT_STRING, &heldout, "IDS.txt", "with --photos: the held-out people, reported apart"},
-        {"limit", 0, CLI_OPT_INT, &limit, "N", "with --photos: only the first N people"},
-        {"sheets", 0, CLI_OPT_STRING, &sheets, "OUT",
+        {"rule", 0, CLI_OPT_STRING, &a.rule, "ratio|paper", "with --photos: the relighting rule (default ratio)"},
+        {"heldout", 0, CLI_OPT_STRING, &a.heldout, "IDS.txt", "with --photos: the held-out people, reported apart"},
+        {"limit", 0, CLI_OPT_INT, &a.limit, "N", "with --photos: only the first N people"},
+        {"sheets", 0, CLI_OPT_STRING, &a.sheets, "OUT",
          "with --photos: instead of scores, a before / after sheet per photo into folder OUT; with --multilight: "
          "also a sheet per subject (the truth, relit, transfer and bound per light) into OUT"},
-        CLI_OPT_SOURCE_LIGHT_ROW(source),
-        CLI_OPT_WHITE_BALANCE_ROW(white_balance),
-        {"guard", 0, CLI_OPT_FLOAT, &guard, "G",
+        CLI_OPT_SOURCE_LIGHT_ROW(a.source),
+        CLI_OPT_WHITE_BALANCE_ROW(a.white_balance),
+        {"guard", 0, CLI_OPT_FLOAT, &a.guard, "G",
          "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "
          "(default 0: the built-in value, docs/usage.md)"},
-        CLI_OPT_THREADS_ROW(threads),
-        CLI_OPT_QUIET_ROW(quiet),
+        CLI_OPT_THREADS_ROW(a.threads),
+        CLI_OPT_QUIET_ROW(a.quiet),
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
@@ -325,66 +415,16 @@ int cmd_eval(int argc, char **argv)
     char **pos = NULL;
     int npos = 0, code = 0;
     if (cli_opts_parse(&spec, argc, argv, &pos, &npos, &code)) return code;
-    const char *data = pos[0], *surplus = npos > 1 ? pos[1] : NULL;
+    a.data = pos[0];
+    const char *surplus = npos > 1 ? pos[1] : NULL;
     free(pos);
-    if (surplus && json) /* the old --json OUT */
-        return cli_usage_error(&spec, "--json prints the report on stdout; write it to a file with -o %s", surplus);
-    if (surplus) return cli_usage_error(&spec, "one DATA folder, not also '%s'", surplus);
-    const json_out jo = {json, out, quiet};
-    if (model_path && pred) return cli_usage_error(&spec, "-m MODEL and --pred DIR exclude each other");
-    if ((code = cli_opts_common(&spec, threads, 1.0f))) return code;
-    if (photos + pairs + multilight > 1) return cli_usage_error(&spec, "--photos, --pairs and --multilight exclude each other");
-    if ((ml_lights || refs || free_level) && !multilight)
-        return cli_usage_error(&spec, "--lights, --refs and --no-keep-brightness go with --multilight");
-    hd_photo_rule how = {strcmp(rule, "paper") == 0 ? HD_RULE_PAPER : HD_RULE_RATIO, HD_SOURCE_FIT, guard};
-    if (source && cli_source_light_parse(&spec, source, &how.source)) return CLI_EXIT_USAGE;
-    if (!(guard >= 0.0f && guard <= 10.0f)) return cli_usage_error(&spec, "--guard wants 0..10, got %g", guard);
-    if (guard > 0 && !photos && !pairs && !multilight)
-        return cli_usage_error(&spec, "--guard goes with --photos, --pairs or --multilight");
-    if (white_balance && (pairs || photos || multilight))
-        return cli_usage_error(&spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
-    if (pairs) {
-        if (pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
-        return pair_eval(data, model_path, &how, &jo);
+    if ((code = eval_check(&spec, &a, surplus))) return code;
+    const json_out jo = {a.json, a.out, a.quiet};
+    if (a.pairs) {
+        if (a.pred) return cli_usage_error(&spec, "--pairs relights with a model: --pred does not go with it");
+        return pair_eval(a.data, a.model_path, &a.how, &jo);
     }
-    if (multilight) {
-        if (pred) return cli_usage_error(&spec, "--multilight relights with a model: --pred does not go with it");
-        if (strcmp(rule, "ratio") != 0 && strcmp(rule, "paper") != 0)
-            return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
-        if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
-        if (refs < 0 || refs > 16) return cli_usage_error(&spec, "--refs wants 1..16, got %d", refs);
-        hd_ml_options o;
-        memset(&o, 0, sizeof o);
-        o.refs = refs, o.limit = limit, o.sheets = sheets, o.rule = how.rule, o.source = how.source, o.guard = guard;
-        o.brightness = free_level ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
-        if (ml_lights && parse_ml_lights(&spec, ml_lights, &o)) return CLI_EXIT_USAGE;
-        return multilight_eval(data, model_path, &o, &jo);
-    }
-    if (photos) {
-        if (pred) return cli_usage_error(&spec, "--photos relights with a model: --pred does not go with it");
-        if (strcmp(rule, "ratio") != 0 && strcmp(rule, "paper") != 0)
-            return cli_usage_error(&spec, "--rule wants ratio or paper, got '%s'", rule);
-        if (limit < 0) return cli_usage_error(&spec, "--limit %d must be >= 0", limit);
-        if (sheets) return photo_sheets(data, model_path, sheets);
-        return photo_eval(data, model_path, &how, heldout, limit, &jo);
-    }
-    if (heldout || limit || sheets || strcmp(rule, "ratio") != 0)
-        return cli_usage_error(&spec, "--rule, --heldout, --limit and --sheets go with --photos");
-    if (white_balance && pred) return cli_usage_error(&spec, "--white-balance goes with a model, not --pred");
-    if ((code = cli_white_balance_set(&spec, white_balance, NULL))) return code;
-    hd_model *model = NULL;
-    if (!pred && hd_model_load(model_path, &model) != HD_OK) return cli_report("eval");
-    if ((code = cli_white_balance_set(&spec, white_balance, model))) {
-        hd_model_free(model);
-        return code;
-    }
-    /* the ground-truth evaluation scores L-Net's light unless told otherwise (SPEC section 7) */
-    hd_eval_report rep;
-    hd_status st = hd_eval_run_light(data, pred, model, source ? how.source : HD_SOURCE_LNET, &rep, warn);
-    hd_model_free(model);
-    if (st != HD_OK) return cli_report("eval");
-    snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", pred ? "predictions" : "hdnet model");
-    if (!quiet && !json) print_table(&rep);
-    if (json || out) return emit_json(&jo, hd_eval_report_json(&rep), out ? hd_eval_report_write_json(out, &rep) : HD_OK);
-    return CLI_EXIT_OK;
+    if (a.multilight) return run_multilight(&spec, &a, &jo);
+    if (a.photos) return run_photos(&spec, &a, &jo);
+    return run_ground_truth(&spec, &a, &jo);
 }

@@ -7,6 +7,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "align/photo_raster.h"
+#include "align/align.h"
 
 /* Largest eigenpair of a symmetric 4x4 matrix by cyclic Jacobi rotations; vec gets the unit
  * eigenvector. */

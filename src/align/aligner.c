@@ -11,6 +11,7 @@
 #include "align/face_detect.h"
 #include "align/face_landmarks.h"
 #include "align/photo_raster.h"
+#include "align/align.h"
 
 #define WARP_MAGIC "hdnet-warp"
 #define WARP_VERSION 1

@@ -11,6 +11,7 @@
 #define HD_FACE_DETECT_H
 
 #include "hdnet.h"
+#include "align/align.h" /* HD_DETECT_MIN_SCORE, HD_DETECT_MIN_FACE */
 
 /* The detector's six keypoints, in MediaPipe's order. "Right" is the person's right: on a
  * frontal photo the right eye is the one on the image's left. */

@@ -161,4 +161,17 @@ hd_status hd_relight_paper(const hd_image *image, const hd_decomposition *d, con
  * each cell the face's square crop at the photo's full resolution. */
 hd_status hd_relight_sheet(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_image *canvas);
 
+/* ---- calls of the public family with no client outside the library and its tests */
+/* hd_apply_texture on a decomposition already made (d of `texture`; source: the face's light). */
+hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition *d, const hd_image *mask,
+                                 const hd_apply_request *request, hd_apply_result *result);
+/* A texture relit under the light estimated for the texture ref (hd_estimate_light, then
+ * hd_relight_face). */
+hd_status hd_transfer_face(hd_model *model, const hd_image *image, const hd_image *mask,
+                           const hd_image *ref, hd_brightness brightness, hd_image *out);
+/* Faces of a photo are unwarped at max(HD_PHOTO_TEXTURE_SIZE, model size) texels a side, so the
+ * relit texture keeps more detail than the model's own size. */
+#define HD_PHOTO_TEXTURE_SIZE 256
+int hd_photo_texture_size(const hd_model *model);
+
 #endif /* HD_APPLY_H */

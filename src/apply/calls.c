@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
+#include "apply/apply.h"
 
 /* Runs q on a texture (aligner NULL) or a photo and moves the one picture asked for into out. */
 static hd_status one_picture(hd_model *model, hd_aligner *aligner, const hd_image *image, const hd_image *mask,

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "core/core.h"
+#include "apply/apply.h"
 
 /* Whether "dir/NAME.ext" has the companion "dir/NAME<suffix>" beside it. */
 static int has_companion(const char *path, const char *suffix)

@@ -164,4 +164,9 @@ char *hd_find_data(const char *name);
 /* The compiled-in PREFIX/share/hdnet. */
 const char *hd_data_install_dir(void);
 
+/* ---- the public settings' other halves, for the tool and the tests */
+/* A short name for a status code ("format error", ...). */
+const char *hd_status_name(hd_status status);
+int hd_threads(void);
+
 #endif /* HD_CORE_H */

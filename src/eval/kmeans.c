@@ -7,6 +7,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "eval/metrics.h"
+#include "eval/eval.h"
 
 static double dist2(const float *a, const float *b, int dim)
 {

@@ -11,6 +11,7 @@
 #include "io/dataset.h"
 #include "eval/eval_json.h"
 #include "eval/metrics.h"
+#include "eval/eval.h"
 
 static const double THRESHOLDS[HD_EVAL_THRESHOLDS] = {20.0, 25.0, 30.0};
 

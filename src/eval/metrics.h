@@ -4,7 +4,7 @@
 #ifndef HD_EVAL_METRICS_H
 #define HD_EVAL_METRICS_H
 
-#include "hdnet.h"
+#include "eval/eval.h"
 
 #define HD_EVAL_KMEANS_K 10
 #define HD_EVAL_KMEANS_SEED 20240601u

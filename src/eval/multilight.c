@@ -19,6 +19,7 @@
 #include "core/core.h"
 #include "eval/eval_json.h"
 #include "eval/multilight.h"
+#include "eval/eval.h"
 
 #define CSV_MAX_BYTES (16u << 20)
 #define CSV_HEADER "file,subject,azimuth_deg,elevation_deg"
@@ -510,6 +511,40 @@ static hd_status write_sheet(const run *R, const subject *S, const hd_image *fro
     return st;
 }
 
+/* The model's normals (maps->normal, the first face's) against photometric stereo's over the face
+ * (maps->mask), with a flat map's and the coarse normals' (the canonical mesh posed on the
+ * landmarks, what the model starts from): each subject's mean angle into R's three lists.
+ * ps_normal, when allocated, receives photometric stereo's normals for the sheet. */
+static hd_status score_normals(run *R, const hd_ps *ps, const hd_photo_maps *maps, size_t P, hd_image *ps_normal)
+{
+    const float *mask = maps->mask.data;
+    hd_image coarse = {0}, coarse_cover = {0};
+    hd_status st = hd_warp_back(&maps->faces[0], &maps->faces[0].normal, NULL, &coarse, &coarse_cover);
+    double sum = 0, flat = 0, crs = 0;
+    long cnt = 0;
+    for (size_t p = 0; st == HD_OK && p < P; p++) {
+        float b[3];
+        if (!(mask[p] > 0.5f) || !hd_ps_solve(ps, p, NULL, NULL, b)) continue;
+        const float len = sqrtf(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        if (!(len > 1e-6f)) continue;
+        const float t[3] = {b[0] / len, b[1] / len, b[2] / len}, z[3] = {0, 0, 1};
+        const float mn[3] = {maps->normal.data[p], maps->normal.data[P + p], maps->normal.data[2 * P + p]};
+        float cn[3] = {coarse.data[p], coarse.data[P + p], coarse.data[2 * P + p]};
+        if (ps_normal->data)
+            for (int k = 0; k < 3; k++) ps_normal->data[(size_t)k * P + p] = t[k];
+        if (mn[0] == 0 && mn[1] == 0 && mn[2] == 0) continue;
+        const float cl = sqrtf(cn[0] * cn[0] + cn[1] * cn[1] + cn[2] * cn[2]);
+        if (!(coarse_cover.data[p] > 0.5f) || !(cl > 1e-6f)) cn[0] = mn[0], cn[1] = mn[1], cn[2] = mn[2];
+        else cn[0] /= cl, cn[1] /= cl, cn[2] /= cl;
+        sum += angle_deg(mn, t), flat += angle_deg(z, t), crs += angle_deg(cn, t), cnt++;
+    }
+    if (st == HD_OK && cnt > 0) st = push(&R->normals, sum / (double)cnt);
+    if (st == HD_OK && cnt > 0) st = push(&R->normals_flat, flat / (double)cnt);
+    if (st == HD_OK && cnt > 0) st = push(&R->normals_coarse, crs / (double)cnt);
+    hd_image_free(&coarse), hd_image_free(&coarse_cover);
+    return st;
+}
+
 /* Pass 2 for subject s: photometric stereo from its photos, the model's normals against it, the
  * four rows against the real photos. */
 static hd_status score_subject(run *R, int s, int *scored)
@@ -569,34 +604,7 @@ static hd_status score_subject(run *R, int s, int *scored)
     float *mask = found ? maps.mask.data : NULL, *pred = hd_malloc((P ? P : 1) * sizeof(float));
     if (st == HD_OK && !pred) st = HD_ERR_NOMEM;
     if (st == HD_OK && found && R->o->sheets) st = hd_image_alloc(&ps_normal, frontal.width, frontal.height, 3);
-    /* the normals: the model's against photometric stereo's over the face, with a flat map's and
-     * the coarse normals' (the canonical mesh posed on the landmarks, what the model starts from) */
-    hd_image coarse = {0}, coarse_cover = {0};
-    if (st == HD_OK && found) st = hd_warp_back(&maps.faces[0], &maps.faces[0].normal, NULL, &coarse, &coarse_cover);
-    if (st == HD_OK && found) {
-        double sum = 0, flat = 0, crs = 0;
-        long cnt = 0;
-        for (size_t p = 0; p < P; p++) {
-            float b[3];
-            if (!(mask[p] > 0.5f) || !hd_ps_solve(&ps, p, NULL, NULL, b)) continue;
-            const float len = sqrtf(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-            if (!(len > 1e-6f)) continue;
-            const float t[3] = {b[0] / len, b[1] / len, b[2] / len}, z[3] = {0, 0, 1};
-            const float mn[3] = {maps.normal.data[p], maps.normal.data[P + p], maps.normal.data[2 * P + p]};
-            float cn[3] = {coarse.data[p], coarse.data[P + p], coarse.data[2 * P + p]};
-            if (ps_normal.data)
-                for (int k = 0; k < 3; k++) ps_normal.data[(size_t)k * P + p] = t[k];
-            if (mn[0] == 0 && mn[1] == 0 && mn[2] == 0) continue;
-            const float cl = sqrtf(cn[0] * cn[0] + cn[1] * cn[1] + cn[2] * cn[2]);
-            if (!(coarse_cover.data[p] > 0.5f) || !(cl > 1e-6f)) cn[0] = mn[0], cn[1] = mn[1], cn[2] = mn[2];
-            else cn[0] /= cl, cn[1] /= cl, cn[2] /= cl;
-            sum += angle_deg(mn, t), flat += angle_deg(z, t), crs += angle_deg(cn, t), cnt++;
-        }
-        if (cnt > 0) st = push(&R->normals, sum / (double)cnt);
-        if (st == HD_OK && cnt > 0) st = push(&R->normals_flat, flat / (double)cnt);
-        if (st == HD_OK && cnt > 0) st = push(&R->normals_coarse, crs / (double)cnt);
-    }
-    hd_image_free(&coarse), hd_image_free(&coarse_cover);
+    if (st == HD_OK && found) st = score_normals(R, &ps, &maps, P, &ps_normal);
     /* the input unchanged and the bound, per target light */
     for (int j = 0; j < L && st == HD_OK && found; j++) {
         if (S->target[j] < 0 || !truths[j].data) continue;

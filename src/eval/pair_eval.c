@@ -13,6 +13,7 @@
 #include "eval/eval_json.h"
 #include "eval/photo_metrics.h"
 #include "apply/apply.h"
+#include "eval/eval.h"
 
 static const char *const ROW_NAMES[HD_PAIR_ROWS] = {"input unchanged", "exact decomposition", "exact ratio (true N, l)",
                                                     "model, ratio rule", "model, paper rule"};

@@ -15,6 +15,7 @@
 #include "eval/photo_metrics.h"
 #include "apply/apply.h"
 #include "mesh/mesh.h"
+#include "eval/eval.h"
 
 static const char *const METRIC_NAMES[HD_PHOTO_METRICS] = {"chroma", "detail", "glow", "seam", "self", "light", "lum",
                                                                 "coverage", "band"};

@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <cjson/cJSON.h>
 #include "core/core.h"
+#include "io/safetensors.h"
 
 #define ST_MAX_HEADER ((uint64_t)100 * 1024 * 1024)
 #define ST_MAX_COUNT 1000000

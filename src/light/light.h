@@ -1,6 +1,6 @@
 /* light.h: internals of the spherical-harmonics lighting module shared by its files (the basis
- * constants of SPEC section 2 and the Lambertian factors they contain), and the one fit the
- * relighting rule needs beyond the public ones. */
+ * constants of SPEC section 2 and the Lambertian factors they contain), the basis itself and the
+ * fits the face's own light needs beyond the public hd_sh_fit. */
 #ifndef HD_LIGHT_H
 #define HD_LIGHT_H
 
@@ -39,5 +39,21 @@ hd_status hd_sh_fit_toward_lobe(const float *normal, const float *shading, const
  * - y . dM l (the training term fit_pair's backward; src/train/losses.c). No pixel: y = 0. */
 hd_status hd_sh_fit_adjoint(const float *normal, const float *mask, int npix, float strength,
                             const float g[HD_SH_COEFFS], float y[HD_SH_COEFFS]);
+
+/* ---- the basis and the constrained fits (the face's own light: src/mesh/face_light.c) */
+/* The 9 basis values b_k(n) of SPEC section 2 for a camera-frame normal n. */
+void hd_sh_basis(const float normal[3], float basis[HD_SH_COEFFS]);
+/* The same pulled toward a prior light: argmin_l sum_p m_p (b(n_p).l - s_p)^2 + strength *
+ * (sum_p m_p) * |l - prior|^2 (strength >= 0; 0: hd_sh_fit; prior NULL: the zero light). With
+ * no pixel in the mask the answer is the prior (when strength > 0). */
+hd_status hd_sh_fit_toward(const float *normal, const float *shading, const float *mask, int npix,
+                           const float prior[HD_SH_COEFFS], float strength, float light[HD_SH_COEFFS]);
+/* The best light of hd_light_from_direction's family (an ambient level plus one distant light
+ * of intensity >= 0, from within 100 degrees of the viewer) for the masked shading: argmin over
+ * that family of sum_p m_p (b(n_p).l - s_p)^2. A face's normals fill only part of the sphere, so a free 9-number
+ * fit swings the coefficients they hardly see; this fit has 4 numbers, which they pin down. With
+ * no pixel in the mask the answer is the zero light. */
+hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
+                         float light[HD_SH_COEFFS]);
 
 #endif /* HD_LIGHT_H */

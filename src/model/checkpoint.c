@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "model/checkpoint.h"
+#include "io/safetensors.h"
 
 void hd_meta_set(hd_meta *m, const char *key, const char *fmt, ...)
 {

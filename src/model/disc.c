@@ -101,12 +101,12 @@ int hd_disc_patches(const hd_disc *d) { return d->Hp * d->Wp; }
 #define DP(name) hd_param_of(&d->table, d->params, name)
 #define DG(name) (want_params ? hd_param_of(&d->table, d->grads, name) : NULL)
 
-void hd_disc_forward(hd_disc *d)
+void hd_disc_forward(hd_disc *d, hd_net_profile *profile)
 {
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {d->c2, d->c3, d->c4};
-    hd_net_stage_clock t = hd_net_stage_start(d->profile);
+    hd_net_stage_clock t = hd_net_stage_start(profile);
     /* c1: lrelu_0.2(conv(x)) */
     hd_conv3x3_forward(d->c1, d->h1, d->in, DP("disc.c1.weight"), DP("disc.c1.bias"));
     const float *prev = d->h1;
@@ -119,16 +119,16 @@ void hd_disc_forward(hd_disc *d)
         prev = d->act[k];
     }
     hd_conv3x3_forward(d->out, d->logit, prev, DP("disc.out.weight"), DP("disc.out.bias"));
-    hd_net_stage_lap(d->profile, 0, HD_STAGE_DISC, &t);
+    hd_net_stage_lap(profile, 0, HD_STAGE_DISC, &t);
 }
 
-void hd_disc_backward(hd_disc *d, int want_input, int want_params)
+void hd_disc_backward(hd_disc *d, int want_input, int want_params, hd_net_profile *profile)
 {
     static const char *const wn[3] = {"disc.c2.weight", "disc.c3.weight", "disc.c4.weight"};
     static const char *const bn[3] = {"disc.c2.bias", "disc.c3.bias", "disc.c4.bias"};
     hd_conv3x3 *plans[3] = {d->c2, d->c3, d->c4};
     size_t B = (size_t)d->B;
-    hd_net_stage_clock t = hd_net_stage_start(d->profile);
+    hd_net_stage_clock t = hd_net_stage_start(profile);
     memset(d->d_h1, 0, B * 64 * (size_t)d->Hd[0] * d->Wd[0] * sizeof(float));
     for (int k = 0; k < 3; k++) {
         size_t n = B * (size_t)disc_channels[k + 2] * d->Hd[k + 1] * d->Wd[k + 1] * sizeof(float);
@@ -151,5 +151,5 @@ void hd_disc_backward(hd_disc *d, int want_input, int want_params)
     /* forward: c1 = lrelu_0.2(conv(x)) */
     hd_conv3x3_backward(d->c1, want_input ? d->d_in : NULL, DG("disc.c1.weight"), DG("disc.c1.bias"), d->d_h1, d->h1,
                         d->in, DP("disc.c1.weight"));
-    hd_net_stage_lap(d->profile, 1, HD_STAGE_DISC, &t);
+    hd_net_stage_lap(profile, 1, HD_STAGE_DISC, &t);
 }

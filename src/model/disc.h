@@ -15,7 +15,6 @@ typedef struct hd_disc {
     float *params, *grads; /* (table.total) */
     hd_conv3x3 *c1, *c2, *c3, *c4, *out;
     int Hd[4], Wd[4], Hp, Wp;
-    hd_net_profile *profile; /* benchmarks only: when not NULL, passes add their time to HD_STAGE_DISC */
     float *act_mem;          /* one block holding every activation below */
     size_t act_floats;
     /* activations (d_ a gradient): c1 output; per c2..c4 pre-norm, normed, activated */
@@ -32,11 +31,12 @@ void hd_disc_param_table(hd_param_table *t);
  * allocated zeroed (load or init them). */
 hd_status hd_disc_create(hd_disc *d, int B, int size, hd_conv_path path);
 void hd_disc_free(hd_disc *d);
-/* Forward of d->in (B, 3, HW) into d->logit (B, 1, Hp, Wp). */
-void hd_disc_forward(hd_disc *d);
+/* Forward of d->in (B, 3, HW) into d->logit (B, 1, Hp, Wp); profile (benchmarks; may be NULL) gets
+ * its time under HD_STAGE_DISC, as in hd_disc_backward. */
+void hd_disc_forward(hd_disc *d, hd_net_profile *profile);
 /* Backward of the last forward from d->d_logit (consumed): accumulates the input gradient into
  * d->d_in when want_input, and parameter gradients into d->grads when want_params. */
-void hd_disc_backward(hd_disc *d, int want_input, int want_params);
+void hd_disc_backward(hd_disc *d, int want_input, int want_params, hd_net_profile *profile);
 /* Number of patch logits per image. */
 int hd_disc_patches(const hd_disc *d);
 

@@ -258,29 +258,31 @@ float *hd_param_of(const hd_param_table *t, float *base, const char *name)
 #define P(name) hd_param_of(&net->table, net->params, name)
 #define G(name) hd_param_of(&net->table, net->grads, name)
 
-void hd_net_forward(hd_net *net)
+void hd_net_forward(hd_net *net, const hd_net_pass *pass)
 {
+    hd_net_profile *prof = pass ? pass->profile : NULL;
+    const float *held = pass ? pass->n_input_hold : NULL;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
-    hd_net_stage_clock t = hd_net_stage_start(net->profile);
+    hd_net_stage_clock t = hd_net_stage_start(prof);
     /* f = conv_in(I) */
     hd_conv3x3_forward(net->conv_in, net->feat, net->input, P("conv_in.weight"), P("conv_in.bias"));
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_CONV_IN, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_CONV_IN, &t);
     /* A = sigmoid(a_net(f)) */
     hd_unet_forward(net->a_net, net->feat, net->a_logit);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_A_NET, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_A_NET, &t);
     hd_sigmoid_forward(net->albedo, net->a_logit, B * 3 * HW);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_HEADS, &t);
     /* S = softplus(s_net(f)) */
     hd_unet_forward(net->s_net, net->feat, net->s_logit);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_S_NET, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_S_NET, &t);
     hd_softplus_forward(net->shading, net->s_logit, B * HW);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_HEADS, &t);
     /* N = normalize(tanh(n_net(S))), S detached */
-    hd_unet_forward(net->n_net, net->n_input_hold ? net->n_input_hold : net->shading, net->n_logit);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_N_NET, &t);
+    hd_unet_forward(net->n_net, held ? held : net->shading, net->n_logit);
+    hd_net_stage_lap(prof, 0, HD_STAGE_N_NET, &t);
     hd_tanh_forward(net->n_tanh, net->n_logit, B * 3 * HW);
     hd_l2norm3_forward(net->normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_HEADS, &t);
     /* l = fc(mean(lrelu(conv2(lrelu(conv1(bottleneck)))))) */
     const float *bott = hd_unet_bottleneck(net->n_net);
     hd_conv3x3_forward(net->l_conv1, net->l_h1, bott, P("l_net.conv1.weight"), P("l_net.conv1.bias"));
@@ -288,7 +290,7 @@ void hd_net_forward(hd_net *net)
     hd_meanpool_forward(net->l_pool, net->l_h2, net->B, HD_LNET_HIDDEN, net->H2 * net->W2);
     hd_linear_forward(net->light, net->l_pool, P("l_net.fc.weight"), P("l_net.fc.bias"), net->B, HD_LNET_HIDDEN,
                       HD_SH_COEFFS);
-    hd_net_stage_lap(net->profile, 0, HD_STAGE_L_NET, &t);
+    hd_net_stage_lap(prof, 0, HD_STAGE_L_NET, &t);
 }
 
 void hd_net_zero_grad(hd_net *net)
@@ -306,13 +308,14 @@ void hd_net_zero_act_grad(hd_net *net)
     memset(net->d_light, 0, B * HD_SH_COEFFS * sizeof(float));
 }
 
-void hd_net_backward(hd_net *net, hd_net_train_set set)
+void hd_net_backward(hd_net *net, hd_net_train_set set, const hd_net_pass *pass)
 {
+    hd_net_profile *prof = pass ? pass->profile : NULL;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     size_t n1 = B * HD_LNET_HIDDEN * (size_t)net->H1 * net->W1, n2 = B * HD_LNET_HIDDEN * (size_t)net->H2 * net->W2;
     size_t nb = B * (size_t)net->cfg.width * net->Hb * net->Wb;
     int all = set == HD_TRAIN_ALL;
-    hd_net_stage_clock t = hd_net_stage_start(net->profile);
+    hd_net_stage_clock t = hd_net_stage_start(prof);
 
     /* L-Net. forward: l = fc(pool); pool = mean(h2); h2 = lrelu(conv2(h1)); h1 = lrelu(conv1(bottleneck)) */
     memset(net->d_l_pool, 0, B * HD_LNET_HIDDEN * sizeof(float));
@@ -326,7 +329,7 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
                         net->l_h2, net->l_h1, P("l_net.conv2.weight"));
     hd_conv3x3_backward(net->l_conv1, all ? net->d_bottleneck : NULL, G("l_net.conv1.weight"), G("l_net.conv1.bias"),
                         net->d_l_h1, net->l_h1, hd_unet_bottleneck(net->n_net), P("l_net.conv1.weight"));
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_L_NET, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_L_NET, &t);
     if (!all) return;
 
     /* N-Net. forward: N = t / max(|t|, eps), t = tanh(n_logit); its input S is detached (dinp NULL) */
@@ -334,9 +337,9 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_n_logit, 0, B * 3 * HW * sizeof(float));
     hd_l2norm3_backward(net->d_n_tanh, net->d_normal, net->n_tanh, net->B, (int)HW, HD_NORMAL_EPS);
     hd_tanh_backward(net->d_n_logit, net->d_n_tanh, net->n_tanh, B * 3 * HW);
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->n_net, net->d_n_logit, net->d_bottleneck, NULL);
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_N_NET, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_N_NET, &t);
 
     /* ASD-Net. forward: A = sigmoid(a_logit), S = softplus(s_logit), both from f = conv_in(I) */
     memset(net->d_a_logit, 0, B * 3 * HW * sizeof(float));
@@ -344,12 +347,12 @@ void hd_net_backward(hd_net *net, hd_net_train_set set)
     memset(net->d_feat, 0, B * HD_FEAT * HW * sizeof(float));
     hd_sigmoid_backward(net->d_a_logit, net->d_albedo, net->albedo, B * 3 * HW);
     hd_softplus_backward(net->d_s_logit, net->d_shading, net->s_logit, B * HW);
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_HEADS, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_HEADS, &t);
     hd_unet_backward(net->a_net, net->d_a_logit, NULL, net->d_feat);
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_A_NET, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_A_NET, &t);
     hd_unet_backward(net->s_net, net->d_s_logit, NULL, net->d_feat);
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_S_NET, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_S_NET, &t);
     hd_conv3x3_backward(net->conv_in, NULL, G("conv_in.weight"), G("conv_in.bias"), net->d_feat, net->feat,
                         net->input, P("conv_in.weight"));
-    hd_net_stage_lap(net->profile, 1, HD_STAGE_CONV_IN, &t);
+    hd_net_stage_lap(prof, 1, HD_STAGE_CONV_IN, &t);
 }

@@ -56,7 +56,7 @@ typedef enum hd_net_train_set {
     HD_TRAIN_LNET     /* only l_net (stage 2a: A-, S-, N-Net frozen) */
 } hd_net_train_set;
 
-/* Parts of the networks a profile splits its time into (hd_net.profile, hd_disc.profile). */
+/* Parts of the networks a profile splits its time into (hd_net_pass.profile). */
 typedef enum hd_net_stage {
     HD_STAGE_CONV_IN = 0,
     HD_STAGE_A_NET,
@@ -71,8 +71,8 @@ typedef enum hd_net_stage {
 /* Stage names for tables ("conv_in", "a_net", "s_net", "n_net", "l_net", "heads", "disc"). */
 extern const char *const hd_net_stage_names[HD_NET_STAGES];
 
-/* Seconds (wall clock) spent per stage, forward and backward, accumulated over every pass while
- * hd_net.profile points at it. */
+/* Seconds (wall clock) spent per stage, forward and backward, accumulated over every pass given
+ * it (hd_net_pass.profile). */
 typedef struct hd_net_profile {
     double fwd[HD_NET_STAGES], bwd[HD_NET_STAGES];
 } hd_net_profile;
@@ -119,10 +119,6 @@ typedef struct hd_net {
     hd_conv3x3 *conv_in, *l_conv1, *l_conv2;
     int Hb, Wb, H1, W1, H2, W2; /* bottleneck, l_net conv1 and conv2 output sides */
 
-    /* Gradient checks only: when not NULL, N-Net reads this (B, 1, HW) instead of S, so that a
-     * finite difference sees S detached from N-Net as the analytic gradient does. */
-    const float *n_input_hold;
-    hd_net_profile *profile; /* benchmarks only: when not NULL, passes add their stage times here */
     float *act_mem; /* one block holding every activation below */
     size_t act_floats;
     /* activations */
@@ -153,8 +149,17 @@ hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mod
 hd_status hd_net_create_run(hd_net *net, const hd_net_config *cfg, int B, hd_conv_path path, const float *weights);
 void hd_net_free(hd_net *net);
 
+/* How one pass runs beyond the network's own state, for the benchmarks and the gradient checks;
+ * a NULL pass (inference, training) is a plain one. The trainer owns one (hd_trainer.pass). */
+typedef struct hd_net_pass {
+    hd_net_profile *profile;   /* benchmarks: when not NULL, the pass adds its stage times here */
+    const float *n_input_hold; /* gradient checks: when not NULL, N-Net reads this (B, 1, HW) instead of
+                                * S, so that a finite difference sees S detached from N-Net as the
+                                * analytic gradient does */
+} hd_net_pass;
+
 /* Forward of net->input: albedo, shading, normal, light (and everything backward needs). */
-void hd_net_forward(hd_net *net);
+void hd_net_forward(hd_net *net, const hd_net_pass *pass);
 /* Zeroes the HD-Net parameter gradients and the activation gradients d_albedo, d_shading,
  * d_normal, d_light (which the losses then accumulate into). */
 void hd_net_zero_grad(hd_net *net);
@@ -163,7 +168,7 @@ void hd_net_zero_act_grad(hd_net *net);
 /* Backward from d_albedo, d_shading, d_normal, d_light into net->grads, with SPEC section 4's
  * paths: the N-Net input S is detached; with HD_TRAIN_LNET only l_net receives gradients.
  * The activation gradients are consumed (overwritten). */
-void hd_net_backward(hd_net *net, hd_net_train_set set);
+void hd_net_backward(hd_net *net, hd_net_train_set set, const hd_net_pass *pass);
 
 /* Multiply-accumulates of one HD-Net forward of one image at cfg (for GFLOP/s). */
 double hd_net_macs(const hd_net_config *cfg);

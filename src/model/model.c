@@ -212,7 +212,7 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
             if ((s = load_input(&images[first + k], size, net->input + (size_t)k * 3 * HW, first + k)) != HD_OK ||
                 (s = balance_input(model, net->input + (size_t)k * 3 * HW, tints[k])) != HD_OK)
                 goto fail;
-        hd_net_forward(net);
+        hd_net_forward(net, NULL);
         for (int k = 0; k < n; k++) {
             hd_decomposition *d = &out[first + k];
             if ((s = hd_image_alloc(&d->albedo, size, size, 3)) != HD_OK ||

@@ -17,4 +17,10 @@ hd_status hd_eyes_uv(int size, hd_image *eyes);
  * for want of memory. */
 hd_status hd_eye_tint(const float *rgb, int size, const float *eyes, float tint[3]);
 
+/* The colour cast of an aligned face texture (square RGB, docs/spec.md section 2) from the whites of
+ * its eyes: the chroma of the brighter half of the texels inside the two eye contours against the
+ * sclera's chroma in the synthetic faces, as per-channel gains of mean 1 clamped to 0.7..1.4; 1, 1, 1
+ * when the eyes hold fewer than 8 texels brighter than 0.02 (closed or masked out). */
+hd_status hd_eye_white_balance(const hd_image *texture, float tint[3]);
+
 #endif

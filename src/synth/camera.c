@@ -11,6 +11,7 @@
 #include <string.h>
 #include <jpeglib.h>
 #include "synth/synth_internal.h"
+#include "synth/synth.h"
 
 #define SYN_CAMERA_STREAM 0x63616d657261ull /* "camera" */
 

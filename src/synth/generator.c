@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "synth/synth_internal.h"
+#include "synth/synth.h"
 
 /* MediaPipe FaceMesh contours (vertex indices), image-left first. */
 static const int EYE_L[] = {33, 246, 161, 160, 159, 158, 157, 173, 133, 155, 154, 153, 145, 144, 163, 7};

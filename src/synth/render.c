@@ -14,6 +14,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include "synth/synth_internal.h"
+#include "io/image_io.h"
+#include "synth/synth.h"
 
 /* Rotation matrix R = Rz(roll) Rx(pitch) Ry(yaw), angles in degrees; yaw > 0 turns the face
  * toward image right, pitch > 0 tilts it up. */

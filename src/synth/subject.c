@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "synth/synth_internal.h"
+#include "synth/synth.h"
 
 /* A bump: vertex displacement amp * exp(-|p - p_anchor|^2 / (2 sigma^2)) * dir (cm). A mirror
  * vertex >= 0 gets the same bump with dir.x negated. */

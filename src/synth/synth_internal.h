@@ -9,6 +9,7 @@
 
 #include "core/core.h"
 #include "mesh/mesh.h"
+#include "synth/synth.h"
 
 /* Face size in the canonical mesh: the outer eye corners are 8.9 cm and 0.44 UV apart, forehead to
  * chin 17.7 cm and 0.85 UV. */

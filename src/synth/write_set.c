@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include "synth/synth_internal.h"
+#include "io/image_io.h"
+#include "synth/synth.h"
 
 #define PREVIEW_SUBJECTS 8
 #define PREVIEW_IMAGES 4

@@ -25,12 +25,13 @@ hd_status hd_loss_weights_preset(const char *name, hd_loss_weights *w)
     return HD_OK;
 }
 
-hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc)
+hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc, const hd_net_pass *pass)
 {
     memset(L, 0, sizeof *L);
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W;
     L->net = net;
     L->disc = disc;
+    L->pass = pass;
     L->shading_mean = HD_SHADING_MEAN_DEFAULT;
     L->shade = hd_calloc(B * HW, sizeof(float));
     L->d_shade = hd_calloc(B * HW, sizeof(float));
@@ -601,6 +602,12 @@ double hd_loss_shading_reconstruction(hd_losses *L, float scale)
     return sum / P;
 }
 
+/* The profile the discriminator's passes add their time to (the benchmarks'), or NULL. */
+static hd_net_profile *disc_profile(const hd_losses *L)
+{
+    return L->pass ? L->pass->profile : NULL;
+}
+
 /* L_adv = mean over patch logits of softplus(-D(m A s(N, l))) for i and j: with B = 2P images,
  * the mean over pairs of the two per-image means is 2 * (the mean over all B * patches logits). */
 double hd_loss_adversarial(hd_losses *L, float scale)
@@ -609,12 +616,12 @@ double hd_loss_adversarial(hd_losses *L, float scale)
     hd_disc *D = L->disc;
     size_t B = (size_t)net->B, HW = (size_t)net->H * net->W, n = B * (size_t)hd_disc_patches(D);
     memcpy(D->in, L->render, B * 3 * HW * sizeof(float));
-    hd_disc_forward(D);
+    hd_disc_forward(D, disc_profile(L));
     memset(D->d_logit, 0, n * sizeof(float));
     double loss = 2.0 * hd_loss_bce_logits(scale != 0.0f ? D->d_logit : NULL, D->logit, n, 1, 2.0f * scale);
     if (scale == 0.0f) return loss;
     memset(D->d_in, 0, B * 3 * HW * sizeof(float));
-    hd_disc_backward(D, 1, 0);
+    hd_disc_backward(D, 1, 0, disc_profile(L));
     /* render = m * A * s: dA += g * m * s, ds += sum_c g * m * A */
     for (size_t b = 0; b < B; b++) {
         const float *m = L->batch->mask + b * HW, *s = L->shade + b * HW, *A = net->albedo + b * 3 * HW;
@@ -642,15 +649,15 @@ double hd_loss_discriminator(hd_losses *L, float scale)
         for (size_t c = 0; c < 3; c++)
             for (size_t p = 0; p < HW; p++) x[c * HW + p] = m[p] * I[c * HW + p];
     }
-    hd_disc_forward(D);
+    hd_disc_forward(D, disc_profile(L));
     memset(D->d_logit, 0, n * sizeof(float));
     double real = 2.0 * hd_loss_bce_logits(grad ? D->d_logit : NULL, D->logit, n, 1, 2.0f * scale);
-    if (grad) hd_disc_backward(D, 0, 1);
+    if (grad) hd_disc_backward(D, 0, 1, disc_profile(L));
     memcpy(D->in, L->render, B * 3 * HW * sizeof(float));
-    hd_disc_forward(D);
+    hd_disc_forward(D, disc_profile(L));
     memset(D->d_logit, 0, n * sizeof(float));
     double fake = 2.0 * hd_loss_bce_logits(grad ? D->d_logit : NULL, D->logit, n, 0, 2.0f * scale);
-    if (grad) hd_disc_backward(D, 0, 1);
+    if (grad) hd_disc_backward(D, 0, 1, disc_profile(L));
     return real + fake;
 }
 

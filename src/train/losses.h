@@ -60,6 +60,7 @@ typedef enum hd_light_target {
 typedef struct hd_losses {
     hd_net *net;
     hd_disc *disc; /* the adversarial terms' discriminator */
+    const hd_net_pass *pass; /* the trainer's: its profile times the discriminator (may be NULL) */
     const hd_pair_batch *batch;
     hd_light_target target;
     float *shade, *d_shade, *recon, *d_recon, *render, *weight;
@@ -85,7 +86,7 @@ typedef struct hd_losses {
     float *fit_mask;   /* (HW) scratch: the fit's weight for one image, fit_layout on its mask */
 } hd_losses;
 
-hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc);
+hd_status hd_losses_create(hd_losses *L, hd_net *net, hd_disc *disc, const hd_net_pass *pass);
 void hd_losses_free(hd_losses *L);
 
 /* The photo's own light (the shading prior's, and --light-target image's) fitted to the skin alone:

@@ -10,6 +10,7 @@
 #include "train/train.h"
 #include "model/checkpoint.h"
 #include "train/train_log.h"
+#include "io/safetensors.h"
 
 int hd_train_default_micro(const hd_net_config *cfg, int pairs)
 {

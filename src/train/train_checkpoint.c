@@ -6,6 +6,7 @@
 #include <string.h>
 #include "train/trainer.h"
 #include "model/checkpoint.h"
+#include "io/safetensors.h"
 
 static void trainer_meta(const hd_trainer *t, hd_meta *m)
 {

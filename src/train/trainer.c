@@ -32,7 +32,7 @@ hd_status hd_trainer_create(hd_trainer *t, const hd_net_config *cfg, int pairs, 
     hd_status s = hd_net_create(&t->net, cfg, 2 * micro, HD_NET_TRAIN, HD_CONV_AUTO);
     if (s != HD_OK) return s;
     if ((s = hd_disc_create(&t->disc, 2 * micro, cfg->size, HD_CONV_AUTO)) != HD_OK ||
-        (s = hd_losses_create(&t->losses, &t->net, &t->disc)) != HD_OK ||
+        (s = hd_losses_create(&t->losses, &t->net, &t->disc, &t->pass)) != HD_OK ||
         (s = hd_pair_batch_alloc(&t->batch, pairs, cfg->size)) != HD_OK)
         goto fail;
     t->adam_m = hd_calloc(t->net.table.total, sizeof(float));
@@ -163,7 +163,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
         t->chunk = chunk_of(t, c);
         memcpy(net->input, t->chunk.image, n * sizeof(float));
         hd_prof_begin("forward"); /* phases of the benchmarks' profile (core.h) */
-        hd_net_forward(net);
+        hd_net_forward(net, &t->pass);
         hd_prof_end();
         hd_net_zero_act_grad(net);
         hd_prof_begin("loss targets");
@@ -186,7 +186,7 @@ hd_status hd_trainer_eval(hd_trainer *t, hd_step_result *r, hd_eval_what what)
         }
         if (grad) {
             hd_prof_begin("backward");
-            hd_net_backward(net, hd_trainer_phase(t, t->iteration));
+            hd_net_backward(net, hd_trainer_phase(t, t->iteration), &t->pass);
             hd_prof_end();
             hd_prof_begin("gradient sums");
             add_to(t->grad_sum, net->grads, ng);

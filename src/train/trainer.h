@@ -56,6 +56,8 @@ typedef struct hd_trainer {
     hd_net net;
     hd_disc disc;
     hd_losses losses;
+    hd_net_pass pass;    /* how the passes run: zero for training; the benchmarks' profile, the gradient
+                          * checks' hook (hdnet_net.h) */
     hd_pair_batch batch; /* what the next step trains on (filled by the caller or the loader) */
     int micro;           /* pairs per forward pass (divides batch.pairs): the network holds 2 micro images */
     hd_pair_batch chunk; /* view of the micro-batch the network saw last (points into batch) */

@@ -12,6 +12,7 @@
 #include "apply/apply.h"
 #include "video/smooth.h"
 #include "video/video.h"
+#include "align/align.h"
 
 #define MAX_TRACKS 16
 #define NLM (HD_FACE_LANDMARKS * 3)

@@ -7,6 +7,7 @@
 #include <string.h>
 #include "core/core.h"
 #include "align/photo_raster.h"
+#include "warp/warp.h"
 
 /* Nearest-texel value of a 1-channel mask (any side) at texture coordinate (u, v) in [0, 1]. */
 static float mask_at(const hd_image *mask, float u, float v)

@@ -2,6 +2,7 @@
  * hd_image_read does); the FUZZ_FORMAT macro names the target (png, jpeg or pfm) so that each
  * gets its own corpus, and the harness prepends nothing: the seeds carry the magic. */
 #include "fuzz_common.h"
+#include "io/image_io.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

@@ -6,7 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "hdnet_tool.h"
+#include "../hdnet_tool.h"
 #include "serve.h"
 
 hd_status serve_blob_append(serve_blob *b, const void *data, size_t n)

@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
-#include "hdnet_tool.h"
+#include "../hdnet_tool.h"
 #include "serve.h"
 
 const char *const serve_map_names[SERVE_MAPS] = {"photo",       "normal",     "shading",      "mask",     "weight",

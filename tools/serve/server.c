@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include "hdnet_tool.h"
+#include "../hdnet_tool.h"
 #include "serve.h"
 
 #define JSON_BODY_MAX 65536 /* bytes of a light request */

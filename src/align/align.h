@@ -1,0 +1,24 @@
+/* align.h: the aligning calls beyond the public ones: one face from landmarks already found
+ * (align_face.c; the video relighter's tracking and the tests) and an aligner's detection settings
+ * (aligner.c). */
+#ifndef HD_ALIGN_H
+#define HD_ALIGN_H
+
+#include "hdnet.h"
+
+/* Aligns one face given its landmarks in `photo` (3 channels): fits the canonical mesh, unwarps
+ * the photo into an S x S texture (barycentric position of each texel in its UV triangle mapped
+ * through the landmark triangle, bilinear sampling), and computes the mask and coarse normals.
+ * size in [16, 4096]. Fails (HD_ERR_NUMERIC / HD_ERR_RANGE) on non-finite or degenerate
+ * landmarks. The face owns its images: free with hd_aligned_face_free. */
+hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LANDMARKS][3], int size,
+                        hd_aligned_face *face);
+/* Face detection settings of an aligner (docs/face_detect.md): the score threshold in (0, 1]
+ * (default HD_DETECT_MIN_SCORE) and the smallest face looked for, in photo pixels wide (default
+ * HD_DETECT_MIN_FACE; the photo is searched over an image pyramid down to that size; 0: one pass
+ * over the whole photo, which finds faces from about 7 % of its longer side up). */
+#define HD_DETECT_MIN_SCORE 0.75f
+#define HD_DETECT_MIN_FACE 40.0f
+hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
+
+#endif /* HD_ALIGN_H */
