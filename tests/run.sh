@@ -81,8 +81,8 @@ for t in "$@" $scripts; do
     echo "$t" >>"$list"
 done
 if [ "$TEST_JOBS" -gt 1 ]; then
-    # the slowest first (measured: docs/performance.md), so that the last to end is a short one
-    slow="test_video train_cli serve_api video_cli multilight_cli relight_eval_cli photo_cli python test_train"
+    # the slowest first (as measured under make check), so that the last to end is a short one
+    slow="relight_eval_cli test_threads serve_api multilight_cli python photo_cli test_video train_cli video_cli apply_cli test_face_detect cli_batch"
     ordered=$scratch/.ordered
     : >"$ordered"
     for s in $slow; do grep -E "/$s(\.sh)?\$" "$list" >>"$ordered"; done
