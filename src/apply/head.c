@@ -49,6 +49,7 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define HEAD_SMOOTH 0.03f      /* the photo's blur before the colour tests (as forehead.c) */
 #define HEAD_MASK_BLUR 0.04f   /* the skin and hair masks are blurred by this within the person, then ramped */
 #define HEAD_HAIR_STRENGTH 0.5f
+#define HEAD_LEAST 0.02f       /* beyond the face's own weight, a weight under this is 0 */
 #define HEAD_NEAR_SKIN 0.12f   /* the hair within about twice this of the skin follows the skin */
 #define BEARD_TO 0.0f          /* below this height (eye distances above the eyes) hair is a beard's ... */
 #define HAIR_FROM 0.3f         /* ... above this the head's hair */
@@ -75,6 +76,7 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define BG_REGION_BLUR 0.06f /* eye distances */
 #define BG_EDGE 0.06f        /* eye distances (at least 3 pixels): the person's outline, part background, is this wide */
 #define OUTLINE_CONTRAST 0.03f /* the person's and the background's luminances this far apart tell an outline's mix */
+#define OUTLINE_LEAST 0.25f    /* an outline pixel with less of the person than this is the background's */
 #define BG_REACH 0.12f       /* eye distances: the background's colour this near its region is background */
 
 void hd_head_free(hd_head *h)
@@ -240,38 +242,72 @@ static hd_status blur_within(float *v, const float *bg, const float *person, int
     return st;
 }
 
+/* Grows region (0 / 1, w x h) through the pixels where through is > 0.5, at most reach steps
+ * (4-neighbours) from where it was: what is connected to it by such pixels, nearby. */
+static hd_status grow_through(float *region, const float *through, int w, int h, int reach)
+{
+    const size_t N = (size_t)w * h;
+    int *step = hd_malloc((N ? N : 1) * sizeof(int));
+    size_t *queue = hd_malloc((N ? N : 1) * sizeof(size_t)), head = 0, tail = 0;
+    if (!step || !queue) {
+        free(step), free(queue);
+        return HD_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < N; i++) {
+        step[i] = region[i] > 0.5f ? 0 : -1;
+        if (!step[i]) queue[tail++] = i;
+    }
+    while (head < tail) {
+        const size_t i = queue[head++];
+        const int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+        if (step[i] >= reach) continue;
+        const size_t next[4] = {x > 0 ? i - 1 : i, x + 1 < w ? i + 1 : i, y > 0 ? i - (size_t)w : i,
+                                y + 1 < h ? i + (size_t)w : i};
+        for (int k = 0; k < 4; k++)
+            if (step[next[k]] < 0 && through[next[k]] > 0.5f) {
+                step[next[k]] = step[i] + 1;
+                region[next[k]] = 1.0f;
+                queue[tail++] = next[k];
+            }
+    }
+    free(step), free(queue);
+    return HD_OK;
+}
+
 /* The person's share of the light reaching the camera at each pixel of its outline (share, 1
- * elsewhere): an outline pixel I mixes the person's colour F (rgb: the window's colours with the
- * outline filled from the person's inside) and the background's B, I = a F + (1 - a) B, so that
- * relit by r it is I + a F (r - 1): its weight is a F / I, a from the luminances. Without it the
- * outline's pixels took the whole change, and their background's part with it (a white rim round
- * an ear under a light that brightens it). person: 1 inside the person, less on its outline. */
-static hd_status outline_share(const hd_head *h, const hd_image *photo, const float *rgb, const float *person,
-                               float *share)
+ * elsewhere; the background h->bg and person, 1 inside the person and less on its outline, both
+ * final): an outline pixel I mixes the person's colour F (carried out from the person's inside)
+ * and the background's B (carried in from the background), I = a F + (1 - a) B, so that relit by
+ * r it is I + a F (r - 1): its weight is a F / I, a from the luminances. Without it the outline's
+ * pixels took the whole change, their background's part with it (a white rim round an ear under a
+ * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. */
+static hd_status outline_share(const hd_head *h, const hd_image *photo, const float *person, float *share)
 {
     const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
-    float *lb = hd_malloc(N * sizeof(float)), *known = hd_malloc(N * sizeof(float));
-    hd_status st = lb && known ? HD_OK : HD_ERR_NOMEM;
+    float *lb = hd_malloc(N * sizeof(float)), *lf = hd_malloc(N * sizeof(float)), *known = hd_malloc(N * sizeof(float));
+    hd_status st = lb && lf && known ? HD_OK : HD_ERR_NOMEM;
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             known[i] = h->bg[i];
-            lb[i] = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
+            lb[i] = lf[i] = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
         }
-    if (st == HD_OK) st = hd_field_fill(lb, known, h->w, h->h); /* B: the background's, carried under the person */
+    if (st == HD_OK) st = hd_field_fill(lb, known, h->w, h->h);
+    for (size_t i = 0; st == HD_OK && i < N; i++) known[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
+    if (st == HD_OK) st = hd_field_fill(lf, known, h->w, h->h);
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+            share[i] = 1.0f;
             if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
             const float li = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
-            const float lf = 0.2126f * rgb[i] + 0.7152f * rgb[N + i] + 0.0722f * rgb[2 * N + i];
-            if (!(fabsf(lf - lb[i]) > OUTLINE_CONTRAST) || !(li > 1e-3f)) continue; /* no telling them apart */
-            float a = (li - lb[i]) / (lf - lb[i]);
+            if (!(fabsf(lf[i] - lb[i]) > OUTLINE_CONTRAST) || !(li > 1e-3f)) continue; /* no telling them apart */
+            float a = (li - lb[i]) / (lf[i] - lb[i]);
             a = a < 0 ? 0 : a > 1 ? 1 : a;
-            const float w = a * lf / li;
-            share[i] = w < 0 ? 0 : w > 1 ? 1 : w;
+            const float w = a * lf[i] / li;
+            share[i] = w < OUTLINE_LEAST ? 0 : w > 1 ? 1 : w;
         }
-    free(lb), free(known);
+    free(lb), free(lf), free(known);
     return st;
 }
 
@@ -306,7 +342,6 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
     if (st == HD_OK && have_bg) st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
     for (size_t i = 0; st == HD_OK && have_bg && i < N; i++) scratch[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
     for (int c = 0; c < 3 && st == HD_OK && have_bg; c++) st = hd_field_fill(rgb + (size_t)c * N, scratch, h->w, h->h);
-    if (st == HD_OK && have_bg) st = outline_share(h, photo, rgb, person, share);
     if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
     int have_skin = 0;
     if (st == HD_OK) {
@@ -339,10 +374,14 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
      * notch between an earlobe and the jaw was taken for hair, and lit) */
     if (st == HD_OK) st = hd_field_blur(scratch, h->w, h->h, BG_REGION_BLUR * h->frame.e);
     for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = scratch[i] > 0.5f && h->bg[i] > 0.5f ? 1.0f : 0.0f;
-    if (st == HD_OK) st = hd_field_feather_out(scratch, h->w, h->h, fmaxf(2.0f, BG_REACH * h->frame.e), person);
+    if (st == HD_OK) st = grow_through(scratch, h->bg, h->w, h->h, (int)fmaxf(2.0f, BG_REACH * h->frame.e));
+    for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = scratch[i];
+    /* the person's outline against that background, and the person's share of its pixels */
+    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
+    if (st == HD_OK && have_bg) st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
+    if (st == HD_OK && have_bg) st = outline_share(h, photo, person, share);
     for (size_t i = 0; st == HD_OK && i < N; i++) {
         const float rs = rho[2 * i], rn = rho[2 * i + 1];
-        h->bg[i] = h->bg[i] > 0.5f && person[i] > 0.0f ? 1.0f : 0.0f;
         h->hair[i] = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= HAIR_REACH_SKULL || rn <= HAIR_REACH_NECK);
         person[i] = 1.0f - h->bg[i];
     }
@@ -521,6 +560,9 @@ hd_status hd_head_weight(hd_head *h, float *weight)
             /* the background keeps the photo bit for bit, but in the face's interior (where the
              * face's own weight is whole: an eye's white may have the background's colour) */
             if (h->bg[i] > 0.5f && !(weight[p] >= 1.0f)) h->ws[i] = h->wh[i] = 0.0f;
+            /* beyond the face, a change too small to see is none (the masks' blur reaches past
+             * the person by a few pixels at 1e-4) */
+            if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) h->ws[i] = h->wh[i] = 0.0f;
             weight[p] = h->ws[i] + h->wh[i];
         }
     return HD_OK;
