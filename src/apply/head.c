@@ -77,7 +77,6 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define BG_EDGE 0.06f        /* eye distances (at least 3 pixels): the person's outline, part background, is this wide */
 #define OUTLINE_CONTRAST 0.03f /* the person's and the background's luminances this far apart tell an outline's mix */
 #define OUTLINE_LEAST 0.25f    /* an outline pixel with less of the person than this is the background's */
-#define BG_REACH 0.12f       /* eye distances: the background's colour this near its region is background */
 
 void hd_head_free(hd_head *h)
 {
@@ -311,6 +310,27 @@ static hd_status outline_share(const hd_head *h, const hd_image *photo, const fl
     return st;
 }
 
+/* Whether pixel i of the features (N pixels a plane) is the skin of medians med, deviations mad. */
+static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT], const float mad[NFEAT])
+{
+    const float cr = feat[(size_t)F_CHROMA_R * N + i], cg = feat[(size_t)F_CHROMA_G * N + i];
+    const float ll = feat[(size_t)F_LOG_LUM * N + i], tx = feat[(size_t)F_TEXTURE * N + i];
+    return fabsf(cr - med[F_CHROMA_R]) <= SKIN_MAD * mad[F_CHROMA_R] + SKIN_CHROMA &&
+           fabsf(cg - med[F_CHROMA_G]) <= SKIN_MAD * mad[F_CHROMA_G] + SKIN_CHROMA &&
+           ll >= med[F_LOG_LUM] - SKIN_DARKER && ll <= med[F_LOG_LUM] + SKIN_BRIGHTER &&
+           tx <= med[F_TEXTURE] + SKIN_MAD * mad[F_TEXTURE] + SKIN_TEXTURE;
+}
+
+/* The window's colours (3 planes) into rgb. */
+static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
+{
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < h->h; y++)
+            memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
+                   (size_t)h->w * sizeof(float));
+}
+
 /* The skin, hair and background masks of the window (the photo's colours, the proxy's reach). The
  * background is 0 or 1, tested on the photo's own pixels (no blur, so the person's outline stays
  * where it is); the skin and the hair are blurred within the person and share its weight, so the
@@ -319,29 +339,20 @@ static hd_status outline_share(const hd_head *h, const hd_image *photo, const fl
 static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
                        const float *rho)
 {
-    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    const size_t N = (size_t)h->w * h->h;
     float *rgb = hd_malloc(3 * N * sizeof(float)), *feat = hd_malloc(NFEAT * N * sizeof(float));
     float *scratch = hd_malloc(N * sizeof(float)), *person = hd_malloc(N * sizeof(float));
     float *share = hd_malloc(N * sizeof(float));
-    unsigned char *pick = hd_calloc(N, 1);
-    hd_status st = rgb && feat && scratch && person && share && pick ? HD_OK : HD_ERR_NOMEM;
+    unsigned char *pick = hd_calloc(N, 1), *own = hd_calloc(N, 1);
+    hd_status st = rgb && feat && scratch && person && share && pick && own ? HD_OK : HD_ERR_NOMEM;
     for (size_t i = 0; st == HD_OK && i < N; i++) share[i] = 1.0f;
-    for (int c = 0; c < 3 && st == HD_OK; c++)
-        for (int y = 0; y < h->h; y++)
-            memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
-                   (size_t)h->w * sizeof(float));
     float skin_med[NFEAT], skin_mad[NFEAT], bg_med[NFEAT], bg_mad[NFEAT];
     const int have_bg = st == HD_OK && background(photo, bg_med, bg_mad);
+    if (st == HD_OK) window_rgb(h, photo, rgb);
     for (size_t i = 0; st == HD_OK && i < N; i++)
         h->bg[i] = (float)(have_bg && is_background(rgb[i], rgb[N + i], rgb[2 * N + i], bg_med, bg_mad));
-    /* the background's pixels and the person's outermost (within BG_EDGE: the outline's pixels
-     * are part background) filled from the person's inside before the skin test's blur: mixed with
-     * the background's colour, a shadowed neck's edge failed both tests and kept the old light, a
-     * dark rim under a light that brightens, a pale one under a light that darkens */
-    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
-    if (st == HD_OK && have_bg) st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
-    for (size_t i = 0; st == HD_OK && have_bg && i < N; i++) scratch[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
-    for (int c = 0; c < 3 && st == HD_OK && have_bg; c++) st = hd_field_fill(rgb + (size_t)c * N, scratch, h->w, h->h);
+    /* the skin on the photo's own colours (blurred a little): the cheeks' sample, then the test;
+     * it wins over the background's colour (a beige wall) */
     if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
     int have_skin = 0;
     if (st == HD_OK) {
@@ -355,26 +366,42 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
         have_skin = stats_of(feat, N, pick, scratch, skin_med, skin_mad);
     }
     for (size_t i = 0; st == HD_OK && i < N; i++) {
-        const float cr = feat[(size_t)F_CHROMA_R * N + i], cg = feat[(size_t)F_CHROMA_G * N + i];
-        const float ll = feat[(size_t)F_LOG_LUM * N + i], tx = feat[(size_t)F_TEXTURE * N + i];
-        int skin = have_skin && fabsf(cr - skin_med[F_CHROMA_R]) <= SKIN_MAD * skin_mad[F_CHROMA_R] + SKIN_CHROMA &&
-               fabsf(cg - skin_med[F_CHROMA_G]) <= SKIN_MAD * skin_mad[F_CHROMA_G] + SKIN_CHROMA &&
-               ll >= skin_med[F_LOG_LUM] - SKIN_DARKER && ll <= skin_med[F_LOG_LUM] + SKIN_BRIGHTER &&
-               tx <= skin_med[F_TEXTURE] + SKIN_MAD * skin_mad[F_TEXTURE] + SKIN_TEXTURE;
-        /* the skin test wins over the background's colour inside the person; at its outline,
-         * where the colours it saw were filled in, the pixel's own colour decides */
-        if (skin && h->bg[i] > 0.5f && have_bg && person[i] < 1.0f) skin = 0;
+        own[i] = (unsigned char)(have_skin && is_skin(feat, N, i, skin_med, skin_mad));
+        if (own[i]) h->bg[i] = 0.0f;
+    }
+    /* again on the colours with the background and the person's outermost pixels (within BG_EDGE:
+     * the outline's pixels are part background) filled from the person's inside: mixed with the
+     * background's colour, a shadowed neck's edge failed both tests and kept the old light, a dark
+     * rim under a light that brightens, a pale one under a light that darkens; a pixel of the
+     * background's own colour stays the background's */
+    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
+    if (st == HD_OK && have_bg && have_skin)
+        st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
+    if (st == HD_OK && have_bg && have_skin) {
+        window_rgb(h, photo, rgb);
+        for (size_t i = 0; i < N; i++) scratch[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
+        for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_fill(rgb + (size_t)c * N, scratch, h->w, h->h);
+        if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
+    }
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const int skin = own[i] || (have_skin && h->bg[i] < 0.5f && is_skin(feat, N, i, skin_med, skin_mad));
         h->skin[i] = (float)skin;
-        if (skin) h->bg[i] = 0.0f;
         scratch[i] = h->bg[i];
     }
     /* the background as a region: small patches of its colour inside the hair (blond hair against
-     * a beige wall) are hair, or the hair changed and stayed by turns (blotches); its colour within
-     * BG_REACH of that region is background again (the blur rounded off its concave corners: the
-     * notch between an earlobe and the jaw was taken for hair, and lit) */
+     * a beige wall) are hair, or the hair changed and stayed by turns (blotches) (the blur rounds
+     * off the region's concave corners too: the notch between an earlobe and the jaw, which the
+     * outline's share below gives back to the background) ... */
     if (st == HD_OK) st = hd_field_blur(scratch, h->w, h->h, BG_REGION_BLUR * h->frame.e);
-    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = scratch[i] > 0.5f && h->bg[i] > 0.5f ? 1.0f : 0.0f;
-    if (st == HD_OK) st = grow_through(scratch, h->bg, h->w, h->h, (int)fmaxf(2.0f, BG_REACH * h->frame.e));
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x;
+            person[i] = scratch[i] > 0.5f && h->bg[i] > 0.5f ? 1.0f : 0.0f;
+            scratch[i] = person[i] > 0.5f && (x == 0 || y == 0 || x == h->w - 1 || y == h->h - 1) ? 1.0f : 0.0f;
+        }
+    /* ... and what of it is enclosed by the person (a patch inside blond hair) is the person's:
+     * the background reaches the window's edge */
+    if (st == HD_OK) st = grow_through(scratch, person, h->w, h->h, h->w + h->h);
     for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = scratch[i];
     /* the person's outline against that background, and the person's share of its pixels */
     for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
@@ -405,7 +432,7 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
         h->skin[i] *= (fs > fn ? fs : fn) * share[i];
         h->hair[i] *= share[i];
     }
-    free(rgb), free(feat), free(scratch), free(person), free(share), free(pick);
+    free(rgb), free(feat), free(scratch), free(person), free(share), free(pick), free(own);
     return st;
 }
 
