@@ -11,8 +11,11 @@
  *   - on the hair (not skin, not the background's colours, within the skull's silhouette grown a
  *     little, or the neck's) with a share (HEAD_HAIR_STRENGTH) of the change of the proxy's normals alone:
  *     hair is not skin and takes no fill from the face (also where a fringe lies over the mesh);
- *   - elsewhere (the background) not at all: those pixels keep the input bit for bit.
- * Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
+ *   - elsewhere (the background, tested pixel by pixel) not at all: those pixels keep the input
+ *     bit for bit; skin and hair share the person's weight up to its outline, whose pixels change
+ *     by the person's share of their light (outline_share).
+ * The proxy's normals face the viewer at least PROXY_FACING: the face's own light, fitted on
+ * normals that do, must not be extrapolated to the silhouette's. Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
  * within HEAD_MESH_BAND eye distances outside the mesh's edge. A colour model is a first step:
  * a segmentation network for the person and the hair (src/graph) is the issue's next one. */
 #include <math.h>
