@@ -110,6 +110,22 @@ static void test_metrics(void)
     free(ch);
     CHECK(seam_step > 10.0);
     CHECK(seam_fade < 1.0);
+    /* the same step where the photo has an edge of its own (a lighter disc: the person's outline
+     * against the background, which keeps the photo): no seam */
+    hd_image disc = copy(&in), disc_step = copy(&in);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                const size_t i = c * P + (size_t)y * W + x;
+                if (in_disc(x, y, 48, 48, 30)) disc.data[i] = in.data[i] * 0.5f + 0.45f;
+                disc_step.data[i] = disc.data[i] + (in_disc(x, y, 48, 48, 30) ? 0.1f * (disc.data[i] < 0.9f) : 0.0f);
+            }
+    CHECK(hd_photo_changed(&disc, &disc_step, &ch, &n) == HD_OK);
+    double seam_outline = hd_photo_seam(&disc, &disc_step, ch);
+    free(ch);
+    printf("seam: a pasted step %.3f, faded %.3f, at the photo's own edge %.3f\n", seam_step, seam_fade, seam_outline);
+    CHECK(seam_outline < 1.5);
+    hd_image_free(&disc), hd_image_free(&disc_step);
 
     /* blurring the disc loses the detail */
     hd_image blurred = copy(&in);

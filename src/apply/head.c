@@ -11,8 +11,11 @@
  *   - on the hair (not skin, not the background's colours, within the skull's silhouette grown a
  *     little, or the neck's) with a share (HEAD_HAIR_STRENGTH) of the change of the proxy's normals alone:
  *     hair is not skin and takes no fill from the face (also where a fringe lies over the mesh);
- *   - elsewhere (the background) not at all: those pixels keep the input bit for bit.
- * Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
+ *   - elsewhere (the background, tested pixel by pixel) not at all: those pixels keep the input
+ *     bit for bit; skin and hair share the person's weight up to its outline, whose pixels change
+ *     by the person's share of their light (outline_share).
+ * The proxy's normals face the viewer at least PROXY_FACING: the face's own light, fitted on
+ * normals that do, must not be extrapolated to the silhouette's. Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
  * within HEAD_MESH_BAND eye distances outside the mesh's edge. A colour model is a first step:
  * a segmentation network for the person and the hair (src/graph) is the issue's next one. */
 #include <math.h>
@@ -29,6 +32,9 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define NECK_Z -4.0f
 #define NECK_R 5.5f
 #define NECK_TOP -3.0f
+/* The proxy's normals face the viewer at least this much (z; 0.4: 66 degrees from the camera's
+ * axis, about where the face mesh's own edge lies). */
+#define PROXY_FACING 0.4f
 /* The neck ends: below NECK_BOTTOM its radius grows by 1 every NECK_FADE cm, so the skin's weight
  * (which fades from radius 1 to SKIN_REACH_NECK) ends smoothly a little below the collarbones
  * instead of running down the photo as a column (an orange suit, a bare chest under a collar). */
@@ -44,8 +50,9 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define HEAD_NORMAL_BAND 0.6f  /* the model's normals hand over to the proxy's over this band */
 #define HEAD_FIELD_BLUR 0.06f  /* the head's field is blurred by this much (the skull / neck crease) */
 #define HEAD_SMOOTH 0.03f      /* the photo's blur before the colour tests (as forehead.c) */
-#define HEAD_MASK_BLUR 0.04f   /* the skin and hair masks are blurred by this, then ramped */
+#define HEAD_MASK_BLUR 0.04f   /* the skin and hair masks are blurred by this within the person, then ramped */
 #define HEAD_HAIR_STRENGTH 0.5f
+#define HEAD_LEAST 0.02f       /* beyond the face's own weight, a weight under this is 0 */
 #define HEAD_NEAR_SKIN 0.12f   /* the hair within about twice this of the skin follows the skin */
 #define BEARD_TO 0.0f          /* below this height (eye distances above the eyes) hair is a beard's ... */
 #define HAIR_FROM 0.3f         /* ... above this the head's hair */
@@ -70,7 +77,9 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define BG_CHROMA 0.015f
 #define BG_LOG_LUM 0.7f
 #define BG_REGION_BLUR 0.06f /* eye distances */
-#define BG_EDGE_BLUR 0.04f
+#define BG_EDGE 0.06f        /* eye distances (at least 3 pixels): the person's outline, part background, is this wide */
+#define OUTLINE_CONTRAST 0.03f /* the person's and the background's luminances this far apart tell an outline's mix */
+#define OUTLINE_LEAST 0.25f    /* an outline pixel with less of the person than this is the background's */
 
 void hd_head_free(hd_head *h)
 {
@@ -129,10 +138,20 @@ static void quadric_normal(const hd_aligned_face *f, const float P[3], const flo
     for (int k = 0; k < 3; k++) m[k] = axis[k] > 0 ? (P[k] - centre[k]) / (axis[k] * axis[k]) : 0.0f;
     const float *R = f->rotation;
     for (int k = 0; k < 3; k++) n[k] = R[k * 3 + 0] * m[0] + R[k * 3 + 1] * m[1] + R[k * 3 + 2] * m[2];
-    if (n[2] < 0) n[2] = 0;
     const float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (len > 1e-9f) n[0] /= len, n[1] /= len, n[2] /= len;
-    else n[0] = n[1] = 0, n[2] = 1;
+    if (!(len > 1e-9f)) {
+        n[0] = n[1] = 0, n[2] = 1;
+        return;
+    }
+    n[0] /= len, n[1] /= len, n[2] /= len;
+    /* turned toward the viewer until z >= PROXY_FACING: the face's own light is fitted on normals
+     * that face the camera and, extrapolated to the silhouette's, can turn the change's sign there
+     * (an ear lit up on the side the light leaves) */
+    if (n[2] < PROXY_FACING) {
+        const float xy = sqrtf(n[0] * n[0] + n[1] * n[1]);
+        const float k = xy > 1e-9f ? sqrtf(1 - PROXY_FACING * PROXY_FACING) / xy : 0.0f;
+        n[0] *= k, n[1] *= k, n[2] = xy > 1e-9f ? PROXY_FACING : 1.0f;
+    }
 }
 
 /* The proxy at photo pixel (x, y): its normal and the skull's and the neck's normalised radii. */
@@ -170,12 +189,6 @@ static int stats_of(const float *feat, size_t N, const unsigned char *pick, floa
     return 1;
 }
 
-/* Ramps a blurred 0/1 mask into a soft weight (0 below 0.3, 1 above 0.8: a little inside the edge). */
-static void ramp(float *v, size_t n)
-{
-    for (size_t i = 0; i < n; i++) v[i] = hd_field_smoothstep((v[i] - 0.3f) / 0.5f);
-}
-
 /* The background's colour: medians and deviations of chroma and log luminance over the photo's
  * border (BORDER of its side; the pixels as they are); 0 without memory. */
 static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
@@ -206,22 +219,145 @@ static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
     return 1;
 }
 
-/* The skin and hair masks of the window (the photo's colours, the proxy's reach). */
-static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
-                       const float *rho)
+/* Whether colour (r, g, b) is the background's (medians med, deviations mad of background()). */
+static int is_background(float r, float g, float b, const float med[NFEAT], const float mad[NFEAT])
+{
+    const float sum = r + g + b, lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+    const float cr = sum > 1e-6f ? r / sum : 1.0f / 3, cg = sum > 1e-6f ? g / sum : 1.0f / 3;
+    const float ll = logf(lum > 1e-3f ? lum : 1e-3f);
+    return fabsf(cr - med[F_CHROMA_R]) <= BG_MAD * mad[F_CHROMA_R] + BG_CHROMA &&
+           fabsf(cg - med[F_CHROMA_G]) <= BG_MAD * mad[F_CHROMA_G] + BG_CHROMA &&
+           fabsf(ll - med[F_LOG_LUM]) <= BG_MAD * mad[F_LOG_LUM] + BG_LOG_LUM;
+}
+
+/* v blurred by sigma over the person only (normalised by the blurred share of pixels that are not
+ * the background, person): the background's pixels count for nothing and end at 0. */
+static hd_status blur_within(float *v, const float *bg, const float *person, int w, int h, float sigma)
+{
+    const size_t N = (size_t)w * h;
+    for (size_t i = 0; i < N; i++) v[i] *= 1 - bg[i];
+    hd_status st = hd_field_blur(v, w, h, sigma);
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float u = bg[i] < 0.5f && person[i] > 1e-6f ? v[i] / person[i] : 0.0f;
+        v[i] = u < 0 ? 0 : u > 1 ? 1 : u;
+    }
+    return st;
+}
+
+/* Grows region (0 / 1, w x h) through the pixels where through is > 0.5, at most reach steps
+ * (4-neighbours) from where it was: what is connected to it by such pixels, nearby. */
+static hd_status grow_through(float *region, const float *through, int w, int h, int reach)
+{
+    const size_t N = (size_t)w * h;
+    int *step = hd_malloc((N ? N : 1) * sizeof(int));
+    size_t *queue = hd_malloc((N ? N : 1) * sizeof(size_t)), head = 0, tail = 0;
+    if (!step || !queue) {
+        free(step), free(queue);
+        return HD_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < N; i++) {
+        step[i] = region[i] > 0.5f ? 0 : -1;
+        if (!step[i]) queue[tail++] = i;
+    }
+    while (head < tail) {
+        const size_t i = queue[head++];
+        const int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w);
+        if (step[i] >= reach) continue;
+        const size_t next[4] = {x > 0 ? i - 1 : i, x + 1 < w ? i + 1 : i, y > 0 ? i - (size_t)w : i,
+                                y + 1 < h ? i + (size_t)w : i};
+        for (int k = 0; k < 4; k++)
+            if (step[next[k]] < 0 && through[next[k]] > 0.5f) {
+                step[next[k]] = step[i] + 1;
+                region[next[k]] = 1.0f;
+                queue[tail++] = next[k];
+            }
+    }
+    free(step), free(queue);
+    return HD_OK;
+}
+
+/* The person's share of the light reaching the camera at each pixel of its outline (share, 1
+ * elsewhere; the background h->bg and person, 1 inside the person and less on its outline, both
+ * final): an outline pixel I mixes the person's colour F (carried out from the person's inside)
+ * and the background's B (carried in from the background), I = a F + (1 - a) B, so that relit by
+ * r it is I + a F (r - 1): its weight is a F / I, a from the luminances. Without it the outline's
+ * pixels took the whole change, their background's part with it (a white rim round an ear under a
+ * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. */
+static hd_status outline_share(const hd_head *h, const hd_image *photo, const float *person, float *share)
 {
     const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
-    float *rgb = hd_malloc(3 * N * sizeof(float)), *feat = hd_malloc(NFEAT * N * sizeof(float));
-    float *scratch = hd_malloc(N * sizeof(float));
-    unsigned char *pick = hd_calloc(N, 1);
-    hd_status st = rgb && feat && scratch && pick ? HD_OK : HD_ERR_NOMEM;
-    for (int c = 0; c < 3 && st == HD_OK; c++)
+    float *lb = hd_malloc(N * sizeof(float)), *lf = hd_malloc(N * sizeof(float)), *known = hd_malloc(N * sizeof(float));
+    hd_status st = lb && lf && known ? HD_OK : HD_ERR_NOMEM;
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+            known[i] = h->bg[i];
+            lb[i] = lf[i] = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
+        }
+    if (st == HD_OK) st = hd_field_fill(lb, known, h->w, h->h);
+    for (size_t i = 0; st == HD_OK && i < N; i++) known[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
+    if (st == HD_OK) st = hd_field_fill(lf, known, h->w, h->h);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
+            share[i] = 1.0f;
+            if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
+            const float li = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
+            if (!(fabsf(lf[i] - lb[i]) > OUTLINE_CONTRAST) || !(li > 1e-3f)) continue; /* no telling them apart */
+            float a = (li - lb[i]) / (lf[i] - lb[i]);
+            a = a < 0 ? 0 : a > 1 ? 1 : a;
+            const float w = a * lf[i] / li;
+            share[i] = w < OUTLINE_LEAST ? 0 : w > 1 ? 1 : w;
+        }
+    free(lb), free(lf), free(known);
+    return st;
+}
+
+/* Whether pixel i of the features (N pixels a plane) is the skin of medians med, deviations mad. */
+static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT], const float mad[NFEAT])
+{
+    const float cr = feat[(size_t)F_CHROMA_R * N + i], cg = feat[(size_t)F_CHROMA_G * N + i];
+    const float ll = feat[(size_t)F_LOG_LUM * N + i], tx = feat[(size_t)F_TEXTURE * N + i];
+    return fabsf(cr - med[F_CHROMA_R]) <= SKIN_MAD * mad[F_CHROMA_R] + SKIN_CHROMA &&
+           fabsf(cg - med[F_CHROMA_G]) <= SKIN_MAD * mad[F_CHROMA_G] + SKIN_CHROMA &&
+           ll >= med[F_LOG_LUM] - SKIN_DARKER && ll <= med[F_LOG_LUM] + SKIN_BRIGHTER &&
+           tx <= med[F_TEXTURE] + SKIN_MAD * mad[F_TEXTURE] + SKIN_TEXTURE;
+}
+
+/* The window's colours (3 planes) into rgb. */
+static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
+{
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    for (int c = 0; c < 3; c++)
         for (int y = 0; y < h->h; y++)
             memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
                    (size_t)h->w * sizeof(float));
-    if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
+}
+
+/* The skin, hair and background masks of the window (the photo's colours, the proxy's reach). The
+ * background is 0 or 1, tested on the photo's own pixels (no blur, so the person's outline stays
+ * where it is); the skin and the hair are blurred within the person and share its weight, so the
+ * change holds up to the outline (a fade there left a pale rim of unchanged edge pixels round a
+ * darkened face, and reached into the background) and does not dip where skin meets hair. */
+static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
+                       const float *rho)
+{
+    const size_t N = (size_t)h->w * h->h;
+    float *rgb = hd_malloc(3 * N * sizeof(float)), *feat = hd_malloc(NFEAT * N * sizeof(float));
+    float *scratch = hd_malloc(N * sizeof(float)), *person = hd_malloc(N * sizeof(float));
+    float *share = hd_malloc(N * sizeof(float));
+    unsigned char *pick = hd_calloc(N, 1), *own = hd_calloc(N, 1);
+    hd_status st = rgb && feat && scratch && person && share && pick && own ? HD_OK : HD_ERR_NOMEM;
+    for (size_t i = 0; st == HD_OK && i < N; i++) share[i] = 1.0f;
     float skin_med[NFEAT], skin_mad[NFEAT], bg_med[NFEAT], bg_mad[NFEAT];
-    int have_skin = 0, have_bg = 0;
+    const int have_bg = st == HD_OK && background(photo, bg_med, bg_mad);
+    if (st == HD_OK) window_rgb(h, photo, rgb);
+    for (size_t i = 0; st == HD_OK && i < N; i++)
+        h->bg[i] = (float)(have_bg && is_background(rgb[i], rgb[N + i], rgb[2 * N + i], bg_med, bg_mad));
+    /* the skin on the photo's own colours (blurred a little): the cheeks' sample, then the test;
+     * it wins over the background's colour (a beige wall) */
+    if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
+    int have_skin = 0;
     if (st == HD_OK) {
         for (int y = 0; y < h->h; y++)
             for (int x = 0; x < h->w; x++) {
@@ -231,43 +367,75 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
                                              ht <= CHEEK_HIGH && fabsf(hd_face_side(&h->frame, gx, gy)) <= CHEEK_SIDE;
             }
         have_skin = stats_of(feat, N, pick, scratch, skin_med, skin_mad);
-        have_bg = background(photo, bg_med, bg_mad);
     }
     for (size_t i = 0; st == HD_OK && i < N; i++) {
-        const float cr = feat[(size_t)F_CHROMA_R * N + i], cg = feat[(size_t)F_CHROMA_G * N + i];
-        const float ll = feat[(size_t)F_LOG_LUM * N + i], tx = feat[(size_t)F_TEXTURE * N + i];
-        int skin = have_skin && fabsf(cr - skin_med[F_CHROMA_R]) <= SKIN_MAD * skin_mad[F_CHROMA_R] + SKIN_CHROMA &&
-               fabsf(cg - skin_med[F_CHROMA_G]) <= SKIN_MAD * skin_mad[F_CHROMA_G] + SKIN_CHROMA &&
-               ll >= skin_med[F_LOG_LUM] - SKIN_DARKER && ll <= skin_med[F_LOG_LUM] + SKIN_BRIGHTER &&
-               tx <= skin_med[F_TEXTURE] + SKIN_MAD * skin_mad[F_TEXTURE] + SKIN_TEXTURE;
-        int bg = have_bg && fabsf(cr - bg_med[F_CHROMA_R]) <= BG_MAD * bg_mad[F_CHROMA_R] + BG_CHROMA &&
-                 fabsf(cg - bg_med[F_CHROMA_G]) <= BG_MAD * bg_mad[F_CHROMA_G] + BG_CHROMA &&
-                 fabsf(ll - bg_med[F_LOG_LUM]) <= BG_MAD * bg_mad[F_LOG_LUM] + BG_LOG_LUM;
+        own[i] = (unsigned char)(have_skin && is_skin(feat, N, i, skin_med, skin_mad));
+        if (own[i]) h->bg[i] = 0.0f;
+    }
+    /* again on the colours with the background and the person's outermost pixels (within BG_EDGE:
+     * the outline's pixels are part background) filled from the person's inside: mixed with the
+     * background's colour, a shadowed neck's edge failed both tests and kept the old light, a dark
+     * rim under a light that brightens, a pale one under a light that darkens; a pixel of the
+     * background's own colour stays the background's */
+    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
+    if (st == HD_OK && have_bg && have_skin)
+        st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
+    if (st == HD_OK && have_bg && have_skin) {
+        window_rgb(h, photo, rgb);
+        for (size_t i = 0; i < N; i++) scratch[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
+        for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_fill(rgb + (size_t)c * N, scratch, h->w, h->h);
+        if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
+    }
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const int skin = own[i] || (have_skin && h->bg[i] < 0.5f && is_skin(feat, N, i, skin_med, skin_mad));
         h->skin[i] = (float)skin;
-        h->bg[i] = (float)(bg && !skin);
+        scratch[i] = h->bg[i];
     }
     /* the background as a region: small patches of its colour inside the hair (blond hair against
-     * a beige wall) are hair, or the hair changed and stayed by turns (blotches) */
-    if (st == HD_OK) st = hd_field_blur(h->bg, h->w, h->h, BG_REGION_BLUR * h->frame.e);
+     * a beige wall) are hair, or the hair changed and stayed by turns (blotches) (the blur rounds
+     * off the region's concave corners too: the notch between an earlobe and the jaw, which the
+     * outline's share below gives back to the background) ... */
+    if (st == HD_OK) st = hd_field_blur(scratch, h->w, h->h, BG_REGION_BLUR * h->frame.e);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x;
+            person[i] = scratch[i] > 0.5f && h->bg[i] > 0.5f ? 1.0f : 0.0f;
+            scratch[i] = person[i] > 0.5f && (x == 0 || y == 0 || x == h->w - 1 || y == h->h - 1) ? 1.0f : 0.0f;
+        }
+    /* ... and what of it is enclosed by the person (a patch inside blond hair) is the person's:
+     * the background reaches the window's edge */
+    if (st == HD_OK) st = grow_through(scratch, person, h->w, h->h, h->w + h->h);
+    for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = scratch[i];
+    /* the person's outline against that background, and the person's share of its pixels */
+    for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
+    if (st == HD_OK && have_bg) st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
+    if (st == HD_OK && have_bg) st = outline_share(h, photo, person, share);
     for (size_t i = 0; st == HD_OK && i < N; i++) {
         const float rs = rho[2 * i], rn = rho[2 * i + 1];
-        h->bg[i] = h->bg[i] > 0.5f && h->skin[i] < 0.5f ? 1.0f : 0.0f;
         h->hair[i] = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= HAIR_REACH_SKULL || rn <= HAIR_REACH_NECK);
+        person[i] = 1.0f - h->bg[i];
     }
-    /* softened: the change fades over a few pixels at the person's outline rather than stopping */
-    if (st == HD_OK) st = hd_field_blur(h->bg, h->w, h->h, BG_EDGE_BLUR * h->frame.e);
+    /* softened within the person: skin and hair share its weight, which fades (ramped) only where
+     * neither goes on (a collar, the proxy's reach), never toward the background */
     const float sigma = HEAD_MASK_BLUR * h->frame.e;
-    if (st == HD_OK) st = hd_field_blur(h->skin, h->w, h->h, sigma);
-    if (st == HD_OK) st = hd_field_blur(h->hair, h->w, h->h, sigma);
-    if (st == HD_OK) ramp(h->skin, N), ramp(h->hair, N);
+    if (st == HD_OK) st = hd_field_blur(person, h->w, h->h, sigma);
+    if (st == HD_OK) st = blur_within(h->skin, h->bg, person, h->w, h->h, sigma);
+    if (st == HD_OK) st = blur_within(h->hair, h->bg, person, h->w, h->h, sigma);
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float u = h->skin[i] + h->hair[i];
+        const float k = u > 1e-6f ? hd_field_smoothstep((u - 0.3f) / 0.5f) / u : 0.0f;
+        h->skin[i] *= k, h->hair[i] *= k;
+    }
     /* the skin's weight fades out toward the proxy's reach (no edge where the skin goes on: the
-     * shoulders, a chest), from radius 1 to the reach */
+     * shoulders, a chest), from radius 1 to the reach; on the outline, the person's share of the
+     * pixel changes */
     for (size_t i = 0; st == HD_OK && i < N; i++) {
         const float fs = 1 - hd_field_smoothstep((rho[2 * i] - 1) / (SKIN_REACH_SKULL - 1));
         const float fn = 1 - hd_field_smoothstep((rho[2 * i + 1] - 1) / (SKIN_REACH_NECK - 1));
-        h->skin[i] *= fs > fn ? fs : fn;
+        h->skin[i] *= (fs > fn ? fs : fn) * share[i];
+        h->hair[i] *= share[i];
     }
-    free(rgb), free(feat), free(scratch), free(pick);
+    free(rgb), free(feat), free(scratch), free(person), free(share), free(pick), free(own);
     return st;
 }
 
@@ -416,10 +584,15 @@ hd_status hd_head_weight(hd_head *h, float *weight)
             const float skin = h->skin[i] * (1 - up * (1 - fminf(1.0f, weight[p])));
             const float hair = fmaxf(h->hair[i], h->skin[i] - skin);
             h->ws[i] = fmaxf(fmaxf(weight[p] * h->mesh[i], skin), low * hair);
-            h->wh[i] = (HEAD_HAIR_STRENGTH + (1 - HEAD_HAIR_STRENGTH) * h->near[i]) * hair * (1 - h->ws[i]);
-            /* the background keeps the photo outside the face's interior (the masks' blur reached into it) */
-            const float keep = 1 - h->bg[i] * (1 - fminf(1.0f, weight[p]));
-            h->ws[i] *= keep, h->wh[i] *= keep;
+            /* the hair takes what the skin leaves of the person (skin and hair share it: no dip
+             * where they meet) */
+            h->wh[i] = (HEAD_HAIR_STRENGTH + (1 - HEAD_HAIR_STRENGTH) * h->near[i]) * fmaxf(0.0f, fminf(hair, 1 - h->ws[i]));
+            /* the background keeps the photo bit for bit, but in the face's interior (where the
+             * face's own weight is whole: an eye's white may have the background's colour) */
+            if (h->bg[i] > 0.5f && !(weight[p] >= 1.0f)) h->ws[i] = h->wh[i] = 0.0f;
+            /* beyond the face, a change too small to see is none (the masks' blur reaches past
+             * the person by a few pixels at 1e-4) */
+            if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) h->ws[i] = h->wh[i] = 0.0f;
             weight[p] = h->ws[i] + h->wh[i];
         }
     return HD_OK;

@@ -16,6 +16,9 @@
 #define RATIO_MIN_LUM 0.02
 /* seam when the inside of the change has no gradient at all */
 #define SEAM_EPS 1e-9
+/* a step of the photo's own log luminance this large between two pixels is an edge of the photo
+ * (the person's outline), where the change may stop */
+#define SEAM_PHOTO_EDGE 0.1
 
 /* Channel c of pixel p as a picture shows it: clamped to [0, 1] (NaN as 0). */
 static double px(const hd_image *im, int c, size_t p)
@@ -130,9 +133,18 @@ double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigne
     for (int y = 0; y + 1 < H; y++)
         for (int x = 0; x + 1 < W; x++) {
             size_t p = (size_t)y * W + x;
-            /* on the border: a 4-neighbour on the other side of the changed region's edge */
-            int border = (x > 0 && changed[p - 1] != changed[p]) || changed[p + 1] != changed[p] ||
-                         (y > 0 && changed[p - W] != changed[p]) || changed[p + W] != changed[p];
+            /* on the border: a 4-neighbour on the other side of the changed region's edge, with
+             * no edge of the photo's own between them (where the change stops at the person's
+             * outline against the background, which keeps the photo, its step is no seam) */
+            const size_t q[4] = {x > 0 ? p - 1 : p, p + 1, y > 0 ? p - W : p, p + W};
+            int border = 0, outline = 0;
+            const double lp = log(lum_at(input, p) + LOG_EPS);
+            for (int k = 0; k < 4; k++)
+                if (changed[q[k]] != changed[p]) {
+                    border = 1;
+                    outline |= fabs(log(lum_at(input, q[k]) + LOG_EPS) - lp) > SEAM_PHOTO_EDGE;
+                }
+            if (border && outline) continue;
             if (!border && !changed[p]) continue;
             double gx = d[p + 1] - d[p], gy = d[p + W] - d[p], g = sqrt(gx * gx + gy * gy);
             if (border) gb += g, nb++;
