@@ -50,6 +50,11 @@ static inline float hd_face_height(const hd_face_frame *fr, int x, int y)
  * pixel's scale and the blurred one, over the same blur (hair's strands score high, skin low). */
 enum { F_CHROMA_R, F_CHROMA_G, F_LOG_LUM, F_TEXTURE, NFEAT };
 hd_status hd_skin_features(float *rgb, int w, int h, float smooth, float *feat);
+/* A colour's luminance (Rec. 709 weights). */
+float hd_luma(float r, float g, float b);
+/* A colour's first three skin features: f[F_CHROMA_R], f[F_CHROMA_G] (r and g over r + g + b; 1/3
+ * for black) and f[F_LOG_LUM] (the log of its luminance, at least log 1e-3). */
+void hd_colour_features(float r, float g, float b, float f[F_TEXTURE]);
 /* Median and median absolute deviation of v[0..n) (n > 0; v is reordered). */
 void hd_median_mad(float *v, size_t n, float *med, float *mad);
 

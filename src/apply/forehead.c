@@ -50,22 +50,32 @@ void hd_median_mad(float *v, size_t n, float *med, float *mad)
 }
 
 /* (apply.h) */
+float hd_luma(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
+
+/* (apply.h) */
+void hd_colour_features(float r, float g, float b, float f[F_TEXTURE])
+{
+    const float sum = r + g + b, lum = hd_luma(r, g, b);
+    f[F_CHROMA_R] = sum > 1e-6f ? r / sum : 1.0f / 3;
+    f[F_CHROMA_G] = sum > 1e-6f ? g / sum : 1.0f / 3;
+    f[F_LOG_LUM] = logf(lum > 1e-3f ? lum : 1e-3f);
+}
+
+/* (apply.h) */
 hd_status hd_skin_features(float *rgb, int w, int h, float smooth, float *feat)
 {
     const size_t n = (size_t)w * h;
     float *fine = feat + (size_t)F_TEXTURE * n;
     for (size_t p = 0; p < n; p++) {
-        float lum = 0.2126f * rgb[p] + 0.7152f * rgb[n + p] + 0.0722f * rgb[2 * n + p];
+        float lum = hd_luma(rgb[p], rgb[n + p], rgb[2 * n + p]);
         fine[p] = logf(lum > 1e-3f ? lum : 1e-3f);
     }
     hd_status st = hd_field_blur(fine, w, h, 0.8f);
     for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_blur(rgb + (size_t)c * n, w, h, smooth);
     for (size_t p = 0; st == HD_OK && p < n; p++) {
-        float r = rgb[p], g = rgb[n + p], b = rgb[2 * n + p], sum = r + g + b;
-        float lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
-        feat[(size_t)F_CHROMA_R * n + p] = sum > 1e-6f ? r / sum : 1.0f / 3;
-        feat[(size_t)F_CHROMA_G * n + p] = sum > 1e-6f ? g / sum : 1.0f / 3;
-        feat[(size_t)F_LOG_LUM * n + p] = logf(lum > 1e-3f ? lum : 1e-3f);
+        float f[F_TEXTURE];
+        hd_colour_features(rgb[p], rgb[n + p], rgb[2 * n + p], f);
+        for (int k = 0; k < F_TEXTURE; k++) feat[(size_t)k * n + p] = f[k];
         fine[p] = fabsf(fine[p] - feat[(size_t)F_LOG_LUM * n + p]);
     }
     if (st == HD_OK) st = hd_field_blur(fine, w, h, smooth);

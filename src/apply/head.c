@@ -203,11 +203,9 @@ static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
             for (int x = 0; x < W; x++) {
                 if (!(x < bw || y < bw || x >= W - bw || y >= H - bw)) continue;
                 const size_t p = (size_t)y * W + x;
-                const float r = photo->data[p], g = photo->data[P + p], b = photo->data[2 * P + p], sum = r + g + b;
-                const float lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
-                v[n++] = k == F_CHROMA_R ? (sum > 1e-6f ? r / sum : 1.0f / 3)
-                         : k == F_CHROMA_G ? (sum > 1e-6f ? g / sum : 1.0f / 3)
-                         : k == F_LOG_LUM ? logf(lum > 1e-3f ? lum : 1e-3f) : 0.0f;
+                float f[F_TEXTURE];
+                hd_colour_features(photo->data[p], photo->data[P + p], photo->data[2 * P + p], f);
+                v[n++] = k < F_TEXTURE ? f[k] : 0.0f;
             }
         if (!n) {
             free(v);
@@ -222,12 +220,11 @@ static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
 /* Whether colour (r, g, b) is the background's (medians med, deviations mad of background()). */
 static int is_background(float r, float g, float b, const float med[NFEAT], const float mad[NFEAT])
 {
-    const float sum = r + g + b, lum = 0.2126f * r + 0.7152f * g + 0.0722f * b;
-    const float cr = sum > 1e-6f ? r / sum : 1.0f / 3, cg = sum > 1e-6f ? g / sum : 1.0f / 3;
-    const float ll = logf(lum > 1e-3f ? lum : 1e-3f);
-    return fabsf(cr - med[F_CHROMA_R]) <= BG_MAD * mad[F_CHROMA_R] + BG_CHROMA &&
-           fabsf(cg - med[F_CHROMA_G]) <= BG_MAD * mad[F_CHROMA_G] + BG_CHROMA &&
-           fabsf(ll - med[F_LOG_LUM]) <= BG_MAD * mad[F_LOG_LUM] + BG_LOG_LUM;
+    float f[F_TEXTURE];
+    hd_colour_features(r, g, b, f);
+    return fabsf(f[F_CHROMA_R] - med[F_CHROMA_R]) <= BG_MAD * mad[F_CHROMA_R] + BG_CHROMA &&
+           fabsf(f[F_CHROMA_G] - med[F_CHROMA_G]) <= BG_MAD * mad[F_CHROMA_G] + BG_CHROMA &&
+           fabsf(f[F_LOG_LUM] - med[F_LOG_LUM]) <= BG_MAD * mad[F_LOG_LUM] + BG_LOG_LUM;
 }
 
 /* v blurred by sigma over the person only (normalised by the blurred share of pixels that are not
@@ -292,7 +289,7 @@ static hd_status outline_share(const hd_head *h, const hd_image *photo, const fl
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             known[i] = h->bg[i];
-            lb[i] = lf[i] = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
+            lb[i] = lf[i] = hd_luma(photo->data[p], photo->data[P + p], photo->data[2 * P + p]);
         }
     if (st == HD_OK) st = hd_field_fill(lb, known, h->w, h->h);
     for (size_t i = 0; st == HD_OK && i < N; i++) known[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
@@ -302,7 +299,7 @@ static hd_status outline_share(const hd_head *h, const hd_image *photo, const fl
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             share[i] = 1.0f;
             if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
-            const float li = 0.2126f * photo->data[p] + 0.7152f * photo->data[P + p] + 0.0722f * photo->data[2 * P + p];
+            const float li = hd_luma(photo->data[p], photo->data[P + p], photo->data[2 * P + p]);
             if (!(fabsf(lf[i] - lb[i]) > OUTLINE_CONTRAST) || !(li > 1e-3f)) continue; /* no telling them apart */
             float a = (li - lb[i]) / (lf[i] - lb[i]);
             a = a < 0 ? 0 : a > 1 ? 1 : a;
