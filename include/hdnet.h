@@ -339,6 +339,13 @@ typedef struct hd_aligned_face {
     float scale, rotation[9], translation[3];
     float depth_sign;  /* +1 when landmark z grows toward the viewer, -1 when away (MediaPipe) */
     float fit_rms;     /* root-mean-square residual of the fit, in pixels */
+    /* Where the person is about this face (MediaPipe's selfie segmentation on a crop posed by the
+     * fit; docs/face_detect.md, "Where the person is"): 1 x w x h, the probability that each pixel
+     * of the photo's window from (person_x0, person_y0) shows the person. Filled by an aligner's
+     * run; empty (data NULL) for a face aligned from given landmarks, which the relighting then
+     * tells from its background by colour alone. */
+    hd_image person;
+    int person_x0, person_y0;
 } hd_aligned_face;
 
 /* Detects every face in `photo` (any channel count; converted to RGB), finds its landmarks and
@@ -561,12 +568,14 @@ hd_status hd_transfer_photo(hd_model *model, hd_aligner *aligner, const hd_image
  * (d[k] at the model's size), the photo with each face's reconstruction A * S warped back and
  * Poisson-blended in (HD_WARP_REPLACE), and the maps warped back into the photo's frame at its
  * full resolution: albedo (3), shading (1), normals (3, unit; 0 outside), and the face mask (1:
- * 1 where a face's visible part lands, else 0); where faces overlap, the better-scoring one. */
+ * 1 where a face's visible part lands, else 0); where faces overlap, the better-scoring one. person
+ * (1): where the people are, the largest of the faces' person maps (hd_aligned_face.person; 0
+ * beyond their windows). */
 typedef struct hd_photo_maps {
     int nfaces;
     hd_aligned_face *faces;
     hd_decomposition *d;
-    hd_image recon, albedo, shading, normal, mask;
+    hd_image recon, albedo, shading, normal, mask, person;
 } hd_photo_maps;
 hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd_image *photo, hd_photo_maps *maps);
 void hd_photo_maps_free(hd_photo_maps *maps);

@@ -181,6 +181,33 @@ exists $d/astronaut.face0.albedo.png $d/astronaut.face0.shading.png $d/astronaut
     $d/astronaut.face0.sheet.png $d/astronaut.recon.png $d/two.face0.albedo.png $d/two.face1.albedo.png $d/two.recon.png
 [ "$(png_size $d/astronaut.face0.albedo.png)" = "32 32" ] || fail "face albedo is not at the model's size"
 [ "$(png_size $d/astronaut.recon.png)" = "512 512" ] || fail "the blended reconstruction is not at the photo's size"
+# where the person is: the photo's size, the face inside it, the photo's top corners not
+exists $d/astronaut.photo.person.png
+[ "$(png_size $d/astronaut.photo.person.png)" = "512 512" ] || fail "the person map is not at the photo's size"
+/usr/bin/python3 - "$d/astronaut.photo.person.png" <<'PY' || fail "the person map does not hold the face, or holds the corners"
+import sys, zlib, struct
+data = open(sys.argv[1], "rb").read()
+w, h, depth, ctype = struct.unpack(">IIBB", data[16:26])
+idat = b"".join(data[i + 8:i + 8 + struct.unpack(">I", data[i:i + 4])[0]]
+                for i in range(8, len(data)) if data[i + 4:i + 8] == b"IDAT")
+raw = zlib.decompress(idat)
+assert depth == 8 and ctype == 0, (depth, ctype)
+rows, prev = [], bytearray(w)
+for y in range(h):  # PNG filters, one byte a pixel
+    f, line = raw[y * (w + 1)], bytearray(raw[y * (w + 1) + 1:(y + 1) * (w + 1)])
+    for x in range(w):
+        a = line[x - 1] if x else 0
+        b, c = prev[x], prev[x - 1] if x else 0
+        p = a + b - c
+        pred = [0, a, b, (a + b) // 2, a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else b if abs(p - b) <= abs(p - c) else c][f]
+        line[x] = (line[x] + pred) & 255
+    rows.append(line)
+    prev = line
+face = rows[127][224]  # the nose tip of the bundled photo
+corners = max(rows[2][2], rows[2][w - 3])
+print("person map: nose %d, top corners %d" % (face, corners))
+sys.exit(0 if face > 240 and corners < 13 else 1)
+PY
 [ ! -e $d/astronaut.face1.albedo.png ] || fail "a second face in the astronaut photo"
 [ ! -e $d/gray.recon.png ] || fail "outputs for the photo without a face"
 [ ! -e x.png ] && [ ! -e x.txt ] || fail "a failed command left an output"

@@ -1,7 +1,9 @@
 /* test_tfjs_graph.c: the TF.js graph runner against an independent direct implementation of every
  * op on a small graph written here (float32, float16-quantised and int32 weights; SAME, VALID and
- * EXPLICIT padding; strides, dilations, a depthwise channel multiplier), binary16 decoding against
- * known values, the real face models' outputs, and broken models (bad JSON, truncated or
+ * EXPLICIT padding; strides, dilations, a depthwise channel multiplier; bilinear resizes on TF's
+ * three grids, transposed convolutions and AddN against a tent filter, a scatter and a sum),
+ * binary16 decoding against known values, the real face models' outputs, the selfie segmentation
+ * network against TensorFlow.js's own output, and broken models (bad JSON, truncated or
  * oversized weights, wrong shapes, unknown ops, missing inputs, cycles) refused with errors that
  * name the file and the node. */
 #include <math.h>
@@ -244,6 +246,22 @@ static void check_close(const char *what, const float *got, const float *want, i
     CHECK(bad == 0);
 }
 
+/* A Placeholder (-1, h, wd, c). */
+static void placeholder(model_writer *w, const char *name, int h, int wd, int c)
+{
+    cJSON *x = mw_node(w, name, "Placeholder", NULL, NULL, NULL, NULL);
+    cJSON *dim = cJSON_AddArrayToObject(
+        cJSON_AddObjectToObject(cJSON_AddObjectToObject(cJSON_GetObjectItem(x, "attr"), "shape"), "shape"), "dim");
+    const int sizes[4] = {-1, h, wd, c};
+    for (int i = 0; i < 4; i++) {
+        char t[16];
+        snprintf(t, sizeof t, "%d", sizes[i]);
+        cJSON *d = cJSON_CreateObject();
+        cJSON_AddStringToObject(d, "size", t);
+        cJSON_AddItemToArray(dim, d);
+    }
+}
+
 /* Builds the test graph:
  *   c1 = FusedConv2D(x, f1 3x3x3x5, b1, alpha1)  stride 2, SAME, BiasAdd + Prelu   (1,4,5,5)
  *   d1 = DepthwiseConv2dNative(c1, fd 3x3x5x2)    stride 1, SAME, dilation 2        (1,4,5,10)
@@ -267,15 +285,7 @@ static void build_test_graph(model_writer *w, const char *c1_filter_shape_overri
     for (size_t i = 0; i < sizeof f3 / sizeof *f3; i++) f3[i] = rnd(&s);
     for (int i = 0; i < 4; i++) b3[i] = rnd(&s);
     mw_init(w);
-    cJSON *x = mw_node(w, "x", "Placeholder", NULL, NULL, NULL, NULL);
-    cJSON *shape = cJSON_AddObjectToObject(cJSON_AddObjectToObject(cJSON_GetObjectItem(x, "attr"), "shape"), "shape");
-    cJSON *dim = cJSON_AddArrayToObject(shape, "dim");
-    const char *sizes[4] = {"-1", "7", "9", "3"};
-    for (int i = 0; i < 4; i++) {
-        cJSON *d = cJSON_CreateObject();
-        cJSON_AddStringToObject(d, "size", sizes[i]);
-        cJSON_AddItemToArray(dim, d);
-    }
+    placeholder(w, "x", X_H, X_W, X_C);
     int sf1[4] = {3, 3, 3, 5}, s5[1] = {5}, sa[3] = {1, 1, 5}, sfd[4] = {3, 3, 5, 2}, sf2[4] = {1, 1, 10, 5};
     int sf3[4] = {2, 2, 8, 4}, s4[1] = {4}, spad[2] = {4, 2}, sshape[1] = {2};
     if (c1_filter_shape_override) sf1[2] = atoi(c1_filter_shape_override);
@@ -552,6 +562,172 @@ static void test_broken(void)
     free(w);
 }
 
+
+/* ------------------------------------------------------------------ the upsampling ops */
+
+#define U_H 5
+#define U_W 6
+#define U_C 3
+
+/* Bilinear resize as a tent filter: out (o) = sum_k in (k) max(0, 1 - |s - k|) along each axis, s
+ * the source position of TF's grid (align_corners: o (in - 1) / (out - 1); half_pixel_centers:
+ * (o + 0.5) in / out - 0.5; else o in / out), clamped to [0, in - 1]. */
+static double tent_pos(int o, int in, int out, int align, int half)
+{
+    double s = align ? (out > 1 ? (double)o * (in - 1) / (out - 1) : 0) : half ? (o + 0.5) * in / out - 0.5 : (double)o * in / out;
+    return s < 0 ? 0 : s > in - 1 ? in - 1 : s;
+}
+
+static void ref_resize(const float *x, float *out, int Ho, int Wo, int align, int half)
+{
+    for (int oy = 0; oy < Ho; oy++)
+        for (int ox = 0; ox < Wo; ox++)
+            for (int c = 0; c < U_C; c++) {
+                const double sy = tent_pos(oy, U_H, Ho, align, half), sx = tent_pos(ox, U_W, Wo, align, half);
+                double acc = 0;
+                for (int y = 0; y < U_H; y++)
+                    for (int xx = 0; xx < U_W; xx++)
+                        acc += x[(y * U_W + xx) * U_C + c] * fmax(0, 1 - fabs(sy - y)) * fmax(0, 1 - fabs(sx - xx));
+                out[(oy * Wo + ox) * U_C + c] = (float)acc;
+            }
+}
+
+/* Transposed convolution by scattering: every input pixel adds filter (ky, kx, o, c) x (iy, ix, c) to
+ * output (iy s - pad + ky, ix s - pad + kx, o); the filter is (K, K, OC, U_C). */
+static void ref_transpose(const float *x, const float *f, int K, int OC, int s, int pad_t, int pad_l, float *out, int Ho,
+                          int Wo)
+{
+    memset(out, 0, (size_t)Ho * Wo * OC * sizeof *out);
+    for (int iy = 0; iy < U_H; iy++)
+        for (int ix = 0; ix < U_W; ix++)
+            for (int ky = 0; ky < K; ky++)
+                for (int kx = 0; kx < K; kx++) {
+                    const int oy = iy * s - pad_t + ky, ox = ix * s - pad_l + kx;
+                    if (oy < 0 || ox < 0 || oy >= Ho || ox >= Wo) continue;
+                    for (int o = 0; o < OC; o++)
+                        for (int c = 0; c < U_C; c++)
+                            out[(oy * Wo + ox) * OC + o] += f[((ky * K + kx) * OC + o) * U_C + c] * x[(iy * U_W + ix) * U_C + c];
+                }
+}
+
+static float ft1[3 * 3 * 4 * U_C], ft2[3 * 3 * 2 * U_C];
+
+
+static void attr_b(cJSON *node, const char *key, int value)
+{
+    cJSON *a = cJSON_AddObjectToObject(cJSON_GetObjectItem(node, "attr"), key);
+    cJSON_AddBoolToObject(a, "b", value);
+}
+
+/* x (1, 5, 6, 3):
+ *   rh = ResizeBilinear(x, [9, 11]) half_pixel_centers; ra = ResizeBilinear(x, [8, 4]) align_corners;
+ *   rn = ResizeBilinear(x, [10, 13]) neither;
+ *   t1 = Conv2DBackpropInput([1, 9, 11, 4], ft1 3x3x4x3, x) stride 2, SAME (padding 1 at the top and left);
+ *   t2 = Conv2DBackpropInput([1, 11, 13, 2], ft2 3x3x2x3, x) stride 2, VALID;
+ *   an = AddN(x, Relu(x), Sigmoid(x)). */
+static void build_upsampling_graph(model_writer *w)
+{
+    unsigned s = 11;
+    for (size_t i = 0; i < sizeof ft1 / sizeof *ft1; i++) ft1[i] = rnd(&s);
+    for (size_t i = 0; i < sizeof ft2 / sizeof *ft2; i++) ft2[i] = rnd(&s);
+    mw_init(w);
+    placeholder(w, "x", U_H, U_W, U_C);
+    int s2[1] = {2}, s4[1] = {4}, sf1[4] = {3, 3, 4, U_C}, sf2[4] = {3, 3, 2, U_C};
+    float size_h[2] = {9, 11}, size_a[2] = {8, 4}, size_n[2] = {10, 13}, out1[4] = {1, 9, 11, 4}, out2[4] = {1, 11, 13, 2};
+    mw_const(w, "size_h", s2, 1, size_h, WK_I32);
+    mw_const(w, "size_a", s2, 1, size_a, WK_I32);
+    mw_const(w, "size_n", s2, 1, size_n, WK_I32);
+    mw_const(w, "out1", s4, 1, out1, WK_I32);
+    mw_const(w, "out2", s4, 1, out2, WK_I32);
+    mw_const(w, "ft1", sf1, 4, ft1, WK_F32);
+    mw_const(w, "ft2", sf2, 4, ft2, WK_F32);
+    cJSON *n = mw_node(w, "rh", "ResizeBilinear", "x", "size_h", NULL, NULL);
+    attr_b(n, "half_pixel_centers", 1);
+    attr_b(n, "align_corners", 0);
+    n = mw_node(w, "ra", "ResizeBilinear", "x", "size_a", NULL, NULL);
+    attr_b(n, "align_corners", 1);
+    mw_node(w, "rn", "ResizeBilinear", "x", "size_n", NULL, NULL);
+    n = mw_node(w, "t1", "Conv2DBackpropInput", "out1", "ft1", "x", NULL);
+    attr_window(n, 2, 2, 1, 1, "SAME");
+    n = mw_node(w, "t2", "Conv2DBackpropInput", "out2", "ft2", "x", NULL);
+    attr_window(n, 2, 2, 1, 1, "VALID");
+    mw_node(w, "xr", "Relu", "x", NULL, NULL, NULL);
+    mw_node(w, "xs", "Sigmoid", "x", NULL, NULL, NULL);
+    mw_node(w, "an", "AddN", "x", "xr", "xs", NULL);
+}
+
+static const float *output_of(hd_tfjs_graph *g, const char *name, int h, int wd, int c)
+{
+    int nd, dims[4];
+    const float *o = hd_tfjs_output(g, name, &nd, dims);
+    CHECK(o && nd == 4 && dims[0] == 1 && dims[1] == h && dims[2] == wd && dims[3] == c);
+    return o && nd == 4 && dims[1] == h && dims[2] == wd && dims[3] == c ? o : NULL;
+}
+
+static void test_upsampling_ops(void)
+{
+    model_writer *w = calloc(1, sizeof *w);
+    build_upsampling_graph(w);
+    mw_write(w, w->bin_len);
+    hd_tfjs_graph *g = NULL;
+    hd_status st = hd_tfjs_load("g.json", &g);
+    if (st != HD_OK) fprintf(stderr, "load: %s\n", hd_error());
+    CHECK(st == HD_OK);
+    float x[U_H * U_W * U_C], want[11 * 13 * 4];
+    unsigned s = 5;
+    for (int i = 0; i < U_H * U_W * U_C; i++) x[i] = rnd(&s);
+    if (g) {
+        CHECK(hd_tfjs_run(g, x) == HD_OK);
+        const float *o;
+        if ((o = output_of(g, "rh", 9, 11, U_C))) ref_resize(x, want, 9, 11, 0, 1), check_close("rh", o, want, 9 * 11 * U_C, 1e-5f);
+        if ((o = output_of(g, "ra", 8, 4, U_C))) ref_resize(x, want, 8, 4, 1, 0), check_close("ra", o, want, 8 * 4 * U_C, 1e-5f);
+        if ((o = output_of(g, "rn", 10, 13, U_C))) ref_resize(x, want, 10, 13, 0, 0), check_close("rn", o, want, 10 * 13 * U_C, 1e-5f);
+        /* align_corners keeps the corners exactly */
+        if ((o = output_of(g, "ra", 8, 4, U_C)))
+            CHECK(o[0] == x[0] && o[(8 * 4 - 1) * U_C + 2] == x[(U_H * U_W - 1) * U_C + 2]);
+        if ((o = output_of(g, "t1", 9, 11, 4)))
+            ref_transpose(x, ft1, 3, 4, 2, 1, 1, want, 9, 11), check_close("t1", o, want, 9 * 11 * 4, 1e-5f);
+        if ((o = output_of(g, "t2", 11, 13, 2)))
+            ref_transpose(x, ft2, 3, 2, 2, 0, 0, want, 11, 13), check_close("t2", o, want, 11 * 13 * 2, 1e-5f);
+        if ((o = output_of(g, "an", U_H, U_W, U_C))) {
+            for (int i = 0; i < U_H * U_W * U_C; i++) want[i] = x[i] + fmaxf(x[i], 0) + 1 / (1 + expf(-x[i]));
+            check_close("an", o, want, U_H * U_W * U_C, 1e-6f);
+        }
+    }
+    hd_tfjs_free(g);
+    /* refused at load, naming the node: both grids at once, output sizes that do not fit the filter,
+     * a window that does not convolve back to the input, AddN of two shapes */
+    static const struct {
+        const char *node, *attr, *value, *frag;
+    } broken[] = {
+        {"rh", "align_corners", "b", "align_corners"},
+        {"t2", "input0", "out1", "output channels"},
+        {"t1", "padding", "VALID", "convolves to"}, /* 9 x 11 convolves to 4 x 5 with VALID, not 5 x 6 */
+        {"an", "input0", "rh", "shape"},
+    };
+    cJSON_Delete(w->root);
+    for (size_t k = 0; k < sizeof broken / sizeof broken[0]; k++) {
+        build_upsampling_graph(w);
+        cJSON *n;
+        cJSON_ArrayForEach(n, w->nodes) {
+            if (strcmp(cJSON_GetObjectItem(n, "name")->valuestring, broken[k].node) != 0) continue;
+            if (strcmp(broken[k].attr, "input0") == 0) {
+                edit_node(w, broken[k].node, "input0", broken[k].value);
+                break;
+            }
+            cJSON_DeleteItemFromObject(cJSON_GetObjectItem(n, "attr"), broken[k].attr);
+            if (strcmp(broken[k].value, "b") == 0) attr_b(n, broken[k].attr, 1);
+            else attr_s(n, broken[k].attr, broken[k].value);
+        }
+        mw_write(w, w->bin_len);
+        char name[64];
+        snprintf(name, sizeof name, "'%s'", broken[k].node);
+        expect_fail(broken[k].frag, HD_ERR_FORMAT, name, broken[k].frag);
+        cJSON_Delete(w->root);
+    }
+    free(w);
+}
+
 /* ------------------------------------------------------------------ the shipped models */
 
 static char *models_dir(void)
@@ -596,11 +772,53 @@ static void test_face_models(void)
     }
 }
 
+/* The selfie segmentation network against TensorFlow.js's own CPU backend on the same input
+ * (tests/data/segment/london-001-256.png / 255; its output recorded as london-001-256.selfie.png,
+ * round(255 p), by tests/reference/record_selfie.js): every pixel within half a level. */
+static void test_selfie_reference(void)
+{
+    char path[4400];
+    snprintf(path, sizeof path, "%s/face-models/selfie.json", models_dir());
+    hd_tfjs_graph *g = NULL;
+    hd_status st = hd_tfjs_load(path, &g);
+    if (st != HD_OK) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK);
+    hd_image in = {0}, ref = {0};
+    snprintf(path, sizeof path, "%s/tests/data/segment/london-001-256.png", test_source_dir());
+    CHECK(hd_image_read_as(path, 3, &in) == HD_OK && in.width == 256 && in.height == 256);
+    snprintf(path, sizeof path, "%s/tests/data/segment/london-001-256.selfie.png", test_source_dir());
+    CHECK(hd_image_read_as(path, 1, &ref) == HD_OK && ref.width == 256 && ref.height == 256);
+    if (g && in.data && ref.data && in.width == 256 && ref.width == 256) {
+        const size_t P = 256 * 256;
+        float *x = malloc(P * 3 * sizeof *x);
+        for (size_t p = 0; x && p < P; p++)
+            for (int c = 0; c < 3; c++) x[3 * p + c] = in.data[c * P + p]; /* planar to NHWC */
+        CHECK(x && hd_tfjs_run(g, x) == HD_OK);
+        int nd, dims[4];
+        const float *o = hd_tfjs_output(g, "activation_10", &nd, dims);
+        CHECK(o && nd == 4 && dims[1] == 256 && dims[2] == 256 && dims[3] == 1);
+        double worst = 0, person = 0;
+        for (size_t p = 0; o && p < P; p++) {
+            worst = fmax(worst, fabs(o[p] - ref.data[p]));
+            person += o[p] > 0.5f;
+        }
+        printf("selfie against TF.js: largest difference %.5f (half a level %.5f); person %.1f %% of the crop\n", worst,
+               0.5 / 255, 100 * person / P);
+        CHECK(worst <= 0.5 / 255 + 1e-4);
+        CHECK(person > 0.2 * P && person < 0.8 * P); /* the reference is a person, not a blank */
+        free(x);
+    }
+    hd_image_free(&in), hd_image_free(&ref);
+    hd_tfjs_free(g);
+}
+
 int main(void)
 {
     test_half();
     test_ops();
     test_broken();
+    test_upsampling_ops();
     test_face_models();
+    test_selfie_reference();
     return test_summary("tfjs_graph");
 }

@@ -184,12 +184,12 @@ static hd_status write_outputs(const job *j, const hd_decomposition *d, const hd
 
 /* The full-resolution maps of a photo in its own frame: NAME.photo.albedo.png (8 bit),
  * NAME.photo.shading.png (16 bit, s / 2) and .pfm, NAME.photo.normal.png (16 bit, 0 outside the
- * faces), NAME.photo.mask.png (8 bit). */
+ * faces), NAME.photo.mask.png (8 bit), NAME.photo.person.png (8 bit: where the people are). */
 static hd_status write_photo_maps(const job *j, const hd_photo_maps *m)
 {
     static const char *const suffix[] = {".photo.albedo.png", ".photo.shading.png", ".photo.shading.pfm",
-                                         ".photo.normal.png", ".photo.mask.png"};
-    enum { N_OUT = 5 };
+                                         ".photo.normal.png", ".photo.mask.png", ".photo.person.png"};
+    enum { N_OUT = 6 };
     char *path[N_OUT] = {0};
     hd_image half = {0}, rgb = {0};
     hd_status st = HD_OK;
@@ -206,6 +206,7 @@ static hd_status write_photo_maps(const job *j, const hd_photo_maps *m)
     if (st == HD_OK) st = hd_normal_encode(&m->normal, &m->mask, &rgb);
     if (st == HD_OK) st = hd_image_write_png(path[3], &rgb, 16);
     if (st == HD_OK) st = hd_image_write_png(path[4], &m->mask, 8);
+    if (st == HD_OK) st = hd_image_write_png(path[5], &m->person, 8);
     for (int k = 0; k < N_OUT; k++) free(path[k]);
     hd_image_free(&half);
     hd_image_free(&rgb);
@@ -482,7 +483,7 @@ int cmd_decompose(int argc, char **argv)
         "keeps its layout: DIR/SUB/NAME.png gives OUT/SUB/NAME.* (a docs/spec.md section 5 set: OUT/SUBJECT/NAME.*,\n"
         "what `hdnet eval --pred` reads); @LIST is a file of paths. A photo NAME is aligned first: face k\n"
         "gets the same files as NAME.face<k>.*, NAME.recon.png is the photo with each face's\n"
-        "reconstruction warped back and Poisson-blended in, and NAME.photo.{albedo,shading,normal,mask}.png\n"
+        "reconstruction warped back and Poisson-blended in, and NAME.photo.{albedo,shading,normal,mask,person}.png\n"
         "(and NAME.photo.shading.pfm) are the maps warped back into the photo's frame at its full size.\n"
         "An unreadable image, a photo without a face or a non-finite result is reported and skipped (none\n"
         "of its files is written); the exit status is then 1, after every other image is written. An\n"

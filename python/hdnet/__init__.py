@@ -45,7 +45,8 @@ class _AlignedFace(ctypes.Structure):
                 ("photo_width", ctypes.c_int), ("photo_height", ctypes.c_int),
                 ("score", ctypes.c_float), ("box", ctypes.c_float * 4),
                 ("scale", ctypes.c_float), ("rotation", ctypes.c_float * 9), ("translation", ctypes.c_float * 3),
-                ("depth_sign", ctypes.c_float), ("fit_rms", ctypes.c_float)]
+                ("depth_sign", ctypes.c_float), ("fit_rms", ctypes.c_float),
+                ("person", _Image), ("person_x0", ctypes.c_int), ("person_y0", ctypes.c_int)]
 
 
 def _load_library():

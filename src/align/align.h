@@ -1,6 +1,6 @@
 /* align.h: the aligning calls beyond the public ones: one face from landmarks already found
  * (align_face.c; the video relighter's tracking and the tests) and an aligner's detection settings
- * (aligner.c). */
+ * (aligner.c), and where the person is about a face (aligner.c, person_segment.c). */
 #ifndef HD_ALIGN_H
 #define HD_ALIGN_H
 
@@ -20,5 +20,9 @@ hd_status hd_align_face(const hd_image *photo, const float landmarks[HD_FACE_LAN
 #define HD_DETECT_MIN_SCORE 0.75f
 #define HD_DETECT_MIN_FACE 40.0f
 hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float min_face);
+/* Fills face->person (where the person is, about the face; person_segment.h) with one of the
+ * aligner's segmentation networks, for a face aligned from landmarks (a video's tracked face).
+ * photo: 3 channels, the one the face was aligned in. */
+hd_status hd_aligner_segment(hd_aligner *aligner, const hd_image *photo, hd_aligned_face *face);
 
 #endif /* HD_ALIGN_H */

@@ -141,6 +141,7 @@ void hd_aligned_face_free(hd_aligned_face *face)
     hd_image_free(&face->texture);
     hd_image_free(&face->mask);
     hd_image_free(&face->normal);
+    hd_image_free(&face->person);
 }
 
 void hd_aligned_faces_free(hd_aligned_face *faces, int count)

@@ -11,6 +11,7 @@
 #include "align/face_detect.h"
 #include "align/face_landmarks.h"
 #include "align/photo_raster.h"
+#include "align/person_segment.h"
 #include "align/align.h"
 
 #define WARP_MAGIC "hdnet-warp"
@@ -189,6 +190,7 @@ done:
 typedef struct align_runner {
     hd_face_detector *detector;
     hd_face_mesh *landmarks;
+    hd_person_segmenter *person;
     struct align_runner *next;
 } align_runner;
 
@@ -209,6 +211,7 @@ static void runner_free(align_runner *r)
     if (!r) return;
     if (r->detector) hd_face_detector_free(r->detector);
     if (r->landmarks) hd_face_mesh_free(r->landmarks);
+    hd_person_segmenter_free(r->person);
     free(r);
 }
 
@@ -219,6 +222,7 @@ static hd_status runner_load(align_runner **out)
     if (!r) return HD_ERR_NOMEM;
     hd_status st = hd_face_detector_load(NULL, &r->detector);
     if (!st) st = hd_face_mesh_load(NULL, &r->landmarks);
+    if (!st) st = hd_person_segmenter_load(NULL, &r->person);
     if (st) {
         runner_free(r);
         return st;
@@ -321,23 +325,49 @@ static hd_status runner_run(align_runner *runner, const hd_mesh *canonical, floa
                             const hd_image *photo, int size,
                             hd_aligned_face **faces, int *count);
 
+/* An idle runner of the pool (another loaded when every one is busy), and giving it back. */
+static hd_status runner_take(hd_aligner *aligner, align_runner **r)
+{
+    pthread_mutex_lock(&aligner->lock);
+    *r = aligner->idle;
+    if (*r) aligner->idle = (*r)->next;
+    pthread_mutex_unlock(&aligner->lock);
+    return *r ? HD_OK : runner_load(r);
+}
+
+static void runner_give(hd_aligner *aligner, align_runner *r)
+{
+    pthread_mutex_lock(&aligner->lock);
+    r->next = aligner->idle;
+    aligner->idle = r;
+    pthread_mutex_unlock(&aligner->lock);
+}
+
 hd_status hd_aligner_run(hd_aligner *aligner, const hd_image *photo, int size, hd_aligned_face **faces, int *count)
 {
     *faces = NULL;
     *count = 0;
     if (!aligner) return hd_fail(HD_ERR_ARG, "align: no aligner");
     hd_apply_threads();
-    pthread_mutex_lock(&aligner->lock);
-    align_runner *r = aligner->idle;
-    if (r) aligner->idle = r->next;
-    pthread_mutex_unlock(&aligner->lock);
-    hd_status st = r ? HD_OK : runner_load(&r);
+    align_runner *r;
+    hd_status st = runner_take(aligner, &r);
     if (st) return st;
     st = runner_run(r, &aligner->canonical, aligner->min_score, aligner->min_face, photo, size, faces, count);
-    pthread_mutex_lock(&aligner->lock);
-    r->next = aligner->idle;
-    aligner->idle = r;
-    pthread_mutex_unlock(&aligner->lock);
+    runner_give(aligner, r);
+    return st;
+}
+
+hd_status hd_aligner_segment(hd_aligner *aligner, const hd_image *photo, hd_aligned_face *face)
+{
+    if (!aligner) return hd_fail(HD_ERR_ARG, "segment: no aligner");
+    if (!photo || !photo->data || photo->channels != 3)
+        return hd_fail(HD_ERR_ARG, "segment: a 3-channel photo is needed");
+    hd_apply_threads();
+    align_runner *r;
+    hd_status st = runner_take(aligner, &r);
+    if (st) return st;
+    st = hd_person_segment(r->person, photo, face);
+    runner_give(aligner, r);
     return st;
 }
 
@@ -429,6 +459,8 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
         }
         hd_image_free(&lifted);
     }
+    /* where each face's person is (the relighting's head) */
+    for (int k = 0; st == HD_OK && k < *count; k++) st = hd_person_segment(aligner->person, p3, &out[k]);
     if (st == HD_OK && *count == 0) {
         if (last != HD_OK) st = last; /* its reason is already set */
         else

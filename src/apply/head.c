@@ -11,13 +11,16 @@
  *   - on the hair (not skin, not the background's colours, within the skull's silhouette grown a
  *     little, or the neck's) with a share (HEAD_HAIR_STRENGTH) of the change of the proxy's normals alone:
  *     hair is not skin and takes no fill from the face (also where a fringe lies over the mesh);
- *   - elsewhere (the background, tested pixel by pixel) not at all: those pixels keep the input
- *     bit for bit; skin and hair share the person's weight up to its outline, whose pixels change
- *     by the person's share of their light (outline_share).
+ *   - elsewhere (the background: where the face's segmentation network says no person, and where
+ *     the colour is the background's, sampled behind the head; tested pixel by pixel) not at
+ *     all: those pixels keep the input bit for bit; skin and hair share the person's weight up to
+ *     its outline, whose pixels change by the person's share of their light (outline_share).
+ *     With the segmentation the hair above the eyes reaches beyond the skull's proxy (a bun,
+ *     curls), as far as the network's person goes (hair_reach).
  * The proxy's normals face the viewer at least PROXY_FACING: the face's own light, fitted on
  * normals that do, must not be extrapolated to the silhouette's. Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
- * within HEAD_MESH_BAND eye distances outside the mesh's edge. A colour model is a first step:
- * a segmentation network for the person and the hair (src/graph) is the issue's next one. */
+ * within HEAD_MESH_BAND eye distances outside the mesh's edge. A face aligned without the
+ * segmentation (from given landmarks) is told from its background by colour alone. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,7 +81,24 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define BG_LOG_LUM 0.7f
 #define BG_REGION_BLUR 0.06f /* eye distances */
 #define BG_EDGE 0.06f        /* eye distances (at least 3 pixels): the person's outline, part background, is this wide */
-#define OUTLINE_CONTRAST 0.03f /* the person's and the background's luminances this far apart tell an outline's mix */
+/* With the face's segmentation (person_segment.c) the background is also where the person's
+ * probability is under PERSON_LEAST (a busy background no colour test tells from hair: a flag, a
+ * shelf); the background's colour stays the background's inside the network's person (the gaps
+ * between curls, which its 256 pixels do not resolve), as without it. PERSON_SURE: where the
+ * network is sure (outline_share). */
+#define PERSON_LEAST 0.5f
+#define PERSON_SURE 0.95f
+#define PERSON_NONE 0.02f   /* surely not the person: the background's colour sample */
+#define BG_NEAR_LEAST 0.05f /* of the person's window, or the photo's border is sampled */
+/* With it the hair is known wherever it goes: above the eyes (from HAIR_UP_FROM to HAIR_UP_TO eye
+ * distances up) it reaches out to HAIR_REACH_PERSON of the skull (a bun, curls, a full head of hair),
+ * its weight fading over the last HAIR_PERSON_FADE; lower, HAIR_REACH_SKULL as without (a collar
+ * and the shoulders are not hair). */
+#define HAIR_REACH_PERSON 1.7f
+#define HAIR_PERSON_FADE 0.25f
+#define HAIR_UP_FROM 0.0f
+#define HAIR_UP_TO 0.5f
+#define OUTLINE_CONTRAST 0.03f /* the person's and the background's colours this far apart (RGB) tell an outline's mix */
 #define OUTLINE_LEAST 0.25f    /* an outline pixel with less of the person than this is the background's */
 
 void hd_head_free(hd_head *h)
@@ -189,19 +209,38 @@ static int stats_of(const float *feat, size_t N, const unsigned char *pick, floa
     return 1;
 }
 
+/* The probability that photo pixel (x, y) shows the person about face f (its segmentation; 0
+ * outside the window it covers). */
+static float person_at(const hd_aligned_face *f, int x, int y)
+{
+    x -= f->person_x0, y -= f->person_y0;
+    if (x < 0 || y < 0 || x >= f->person.width || y >= f->person.height) return 0.0f;
+    return f->person.data[(size_t)y * f->person.width + x];
+}
+
 /* The background's colour: medians and deviations of chroma and log luminance over the photo's
- * border (BORDER of its side; the pixels as they are); 0 without memory. */
-static int background(const hd_image *photo, float med[NFEAT], float mad[NFEAT])
+ * border (BORDER of its side; the pixels as they are), or with the face's segmentation f over the
+ * pixels of the person's window it is sure are not the person (PERSON_NONE; at least
+ * BG_NEAR_LEAST of the window): the wall behind the head rather than everything at the photo's
+ * edge (a flag, a suit); 0 without memory. */
+static int background(const hd_image *photo, const hd_aligned_face *f, float med[NFEAT], float mad[NFEAT])
 {
     const int W = photo->width, H = photo->height, bw = (int)ceilf(BORDER * (W > H ? W : H));
     const size_t P = (size_t)W * H;
     float *v = hd_malloc((P ? P : 1) * sizeof(float));
     if (!v) return 0;
+    size_t sure = 0;
+    for (size_t p = 0; f->person.data && p < (size_t)f->person.width * f->person.height; p++)
+        sure += f->person.data[p] < PERSON_NONE;
+    const int near = f->person.data && (double)sure >= BG_NEAR_LEAST * f->person.width * f->person.height;
     for (int k = 0; k < NFEAT; k++) {
         size_t n = 0;
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
-                if (!(x < bw || y < bw || x >= W - bw || y >= H - bw)) continue;
+                if (near ? !(person_at(f, x, y) < PERSON_NONE && x >= f->person_x0 && y >= f->person_y0 &&
+                             x < f->person_x0 + f->person.width && y < f->person_y0 + f->person.height)
+                         : !(x < bw || y < bw || x >= W - bw || y >= H - bw))
+                    continue;
                 const size_t p = (size_t)y * W + x;
                 float f[F_TEXTURE];
                 hd_colour_features(photo->data[p], photo->data[P + p], photo->data[2 * P + p], f);
@@ -273,41 +312,95 @@ static hd_status grow_through(float *region, const float *through, int w, int h,
     return HD_OK;
 }
 
+/* The window's colours (3 planes) into rgb. */
+static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
+{
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < h->h; y++)
+            memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
+                   (size_t)h->w * sizeof(float));
+}
+
+
 /* The person's share of the light reaching the camera at each pixel of its outline (share, 1
  * elsewhere; the background h->bg and person, 1 inside the person and less on its outline, both
  * final): an outline pixel I mixes the person's colour F (carried out from the person's inside)
  * and the background's B (carried in from the background), I = a F + (1 - a) B, so that relit by
- * r it is I + a F (r - 1): its weight is a F / I, a from the luminances. Without it the outline's
+ * r it is I + a F (r - 1): its weight is a F / I (luminances), a from the colours (I projected on
+ * the line from B to F: blond hair and a grey wall may share a luminance, not a colour). Without it the outline's
  * pixels took the whole change, their background's part with it (a white rim round an ear under a
- * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. */
-static hd_status outline_share(const hd_head *h, const hd_image *photo, const float *person, float *share)
+ * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. Where
+ * the two luminances are too close to tell a mix (blond hair before a grey wall), the face's
+ * segmentation f (when it ran) gives the share: its probability ramped from PERSON_LEAST to
+ * PERSON_SURE, so that the change fades over the network's soft edge instead of stopping at once. */
+static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const hd_image *photo, const float *person,
+                               float *share)
 {
     const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
-    float *lb = hd_malloc(N * sizeof(float)), *lf = hd_malloc(N * sizeof(float)), *known = hd_malloc(N * sizeof(float));
-    hd_status st = lb && lf && known ? HD_OK : HD_ERR_NOMEM;
+    float *cb = hd_malloc(3 * N * sizeof(float)), *cf = hd_malloc(3 * N * sizeof(float));
+    float *known = hd_malloc(N * sizeof(float));
+    hd_status st = cb && cf && known ? HD_OK : HD_ERR_NOMEM;
+    if (st == HD_OK) {
+        window_rgb(h, photo, cb);
+        memcpy(cf, cb, 3 * N * sizeof(float));
+        memcpy(known, h->bg, N * sizeof(float));
+    }
+    for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_fill(cb + (size_t)c * N, known, h->w, h->h);
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
-            const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
-            known[i] = h->bg[i];
-            lb[i] = lf[i] = hd_luma(photo->data[p], photo->data[P + p], photo->data[2 * P + p]);
+            const size_t i = (size_t)y * h->w + x;
+            known[i] = person[i] >= 1.0f && !(f->person.data && person_at(f, x + h->x0, y + h->y0) < PERSON_SURE);
         }
-    if (st == HD_OK) st = hd_field_fill(lb, known, h->w, h->h);
-    for (size_t i = 0; st == HD_OK && i < N; i++) known[i] = person[i] >= 1.0f ? 1.0f : 0.0f;
-    if (st == HD_OK) st = hd_field_fill(lf, known, h->w, h->h);
+    for (int c = 0; c < 3 && st == HD_OK; c++) st = hd_field_fill(cf + (size_t)c * N, known, h->w, h->h);
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             share[i] = 1.0f;
-            if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
-            const float li = hd_luma(photo->data[p], photo->data[P + p], photo->data[2 * P + p]);
-            if (!(fabsf(lf[i] - lb[i]) > OUTLINE_CONTRAST) || !(li > 1e-3f)) continue; /* no telling them apart */
-            float a = (li - lb[i]) / (lf[i] - lb[i]);
+            /* the outline: the person's outermost pixels, and the network's soft edge */
+            const int soft = f->person.data && person_at(f, x + h->x0, y + h->y0) < PERSON_SURE;
+            if (h->bg[i] > 0.5f || (person[i] >= 1.0f && !soft)) continue;
+            /* a: the pixel's colour projected on the line from B to F */
+            float num = 0, den = 0, I[3], F[3];
+            for (int c = 0; c < 3; c++) {
+                I[c] = photo->data[(size_t)c * P + p], F[c] = cf[(size_t)c * N + i];
+                const float fb = F[c] - cb[(size_t)c * N + i];
+                num += (I[c] - cb[(size_t)c * N + i]) * fb, den += fb * fb;
+            }
+            const float li = hd_luma(I[0], I[1], I[2]), lf = hd_luma(F[0], F[1], F[2]);
+            if (!(den > OUTLINE_CONTRAST * OUTLINE_CONTRAST) || !(li > 1e-3f)) { /* no telling them apart */
+                if (f->person.data) {
+                    const float w = hd_field_smoothstep((person_at(f, x + h->x0, y + h->y0) - PERSON_LEAST) /
+                                                        (PERSON_SURE - PERSON_LEAST));
+                    share[i] = w < OUTLINE_LEAST ? 0 : w;
+                }
+                continue;
+            }
+            float a = num / den;
             a = a < 0 ? 0 : a > 1 ? 1 : a;
-            const float w = a * lf[i] / li;
+            /* on the network's soft edge, weighted by how sure it is of the person */
+            const float sure = soft ? hd_field_smoothstep((person_at(f, x + h->x0, y + h->y0) - PERSON_LEAST) /
+                                                          (PERSON_SURE - PERSON_LEAST))
+                                    : 1.0f;
+            const float w = a * sure * lf / li;
             share[i] = w < OUTLINE_LEAST ? 0 : w > 1 ? 1 : w;
         }
-    free(lb), free(lf), free(known);
+    free(cb), free(cf), free(known);
     return st;
+}
+
+
+/* How far the hair reaches at photo pixel (x, y), as the skull's normalised radius, and the weight
+ * of hair at radius rs there (1 up to the fade). */
+static float hair_reach(const hd_head *h, int segmented, int x, int y, float rs, float *weight)
+{
+    *weight = 1.0f;
+    if (!segmented) return HAIR_REACH_SKULL;
+    const float up = hd_field_smoothstep((hd_face_height(&h->frame, x, y) - HAIR_UP_FROM) / (HAIR_UP_TO - HAIR_UP_FROM));
+    const float reach = HAIR_REACH_SKULL + up * (HAIR_REACH_PERSON - HAIR_REACH_SKULL);
+    const float from = fmaxf(HAIR_REACH_SKULL, reach - HAIR_PERSON_FADE);
+    if (reach - from > 1e-3f) *weight = 1.0f - hd_field_smoothstep((rs - from) / (reach - from));
+    return reach;
 }
 
 /* Whether pixel i of the features (N pixels a plane) is the skin of medians med, deviations mad. */
@@ -321,22 +414,13 @@ static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT]
            tx <= med[F_TEXTURE] + SKIN_MAD * mad[F_TEXTURE] + SKIN_TEXTURE;
 }
 
-/* The window's colours (3 planes) into rgb. */
-static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
-{
-    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
-    for (int c = 0; c < 3; c++)
-        for (int y = 0; y < h->h; y++)
-            memcpy(rgb + (size_t)c * N + (size_t)y * h->w, photo->data + (size_t)c * P + photo_index(h, 0, y),
-                   (size_t)h->w * sizeof(float));
-}
 
 /* The skin, hair and background masks of the window (the photo's colours, the proxy's reach). The
  * background is 0 or 1, tested on the photo's own pixels (no blur, so the person's outline stays
  * where it is); the skin and the hair are blurred within the person and share its weight, so the
  * change holds up to the outline (a fade there left a pale rim of unchanged edge pixels round a
  * darkened face, and reached into the background) and does not dip where skin meets hair. */
-static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
+static hd_status masks(hd_head *h, const hd_aligned_face *f, const hd_image *photo, const float *coverage,
                        const float *rho)
 {
     const size_t N = (size_t)h->w * h->h;
@@ -347,10 +431,16 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
     hd_status st = rgb && feat && scratch && person && share && pick && own ? HD_OK : HD_ERR_NOMEM;
     for (size_t i = 0; st == HD_OK && i < N; i++) share[i] = 1.0f;
     float skin_med[NFEAT], skin_mad[NFEAT], bg_med[NFEAT], bg_mad[NFEAT];
-    const int have_bg = st == HD_OK && background(photo, bg_med, bg_mad);
+    const int segmented = f->person.data != NULL;
+    const int have_colour = st == HD_OK && background(photo, f, bg_med, bg_mad), have_bg = segmented || have_colour;
     if (st == HD_OK) window_rgb(h, photo, rgb);
-    for (size_t i = 0; st == HD_OK && i < N; i++)
-        h->bg[i] = (float)(have_bg && is_background(rgb[i], rgb[N + i], rgb[2 * N + i], bg_med, bg_mad));
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x;
+            const float p = segmented ? person_at(f, x + h->x0, y + h->y0) : 0.0f;
+            const int colour = have_colour && is_background(rgb[i], rgb[N + i], rgb[2 * N + i], bg_med, bg_mad);
+            h->bg[i] = (float)(colour || (segmented && p < PERSON_LEAST));
+        }
     /* the skin on the photo's own colours (blurred a little): the cheeks' sample, then the test;
      * it wins over the background's colour (a beige wall) */
     if (st == HD_OK) st = hd_skin_features(rgb, h->w, h->h, HEAD_SMOOTH * h->frame.e, feat);
@@ -366,7 +456,9 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
         have_skin = stats_of(feat, N, pick, scratch, skin_med, skin_mad);
     }
     for (size_t i = 0; st == HD_OK && i < N; i++) {
-        own[i] = (unsigned char)(have_skin && is_skin(feat, N, i, skin_med, skin_mad));
+        const int x = (int)(i % (size_t)h->w) + h->x0, y = (int)(i / (size_t)h->w) + h->y0;
+        own[i] = (unsigned char)(have_skin && is_skin(feat, N, i, skin_med, skin_mad) &&
+                                 !(segmented && person_at(f, x, y) < PERSON_LEAST));
         if (own[i]) h->bg[i] = 0.0f;
     }
     /* again on the colours with the background and the person's outermost pixels (within BG_EDGE:
@@ -406,10 +498,14 @@ static hd_status masks(hd_head *h, const hd_image *photo, const float *coverage,
     /* the person's outline against that background, and the person's share of its pixels */
     for (size_t i = 0; st == HD_OK && i < N; i++) scratch[i] = 1.0f - h->bg[i];
     if (st == HD_OK && have_bg) st = hd_field_feather(scratch, h->w, h->h, fmaxf(3.0f, BG_EDGE * h->frame.e), person);
-    if (st == HD_OK && have_bg) st = outline_share(h, photo, person, share);
+    if (st == HD_OK && have_bg) st = outline_share(h, f, photo, person, share);
     for (size_t i = 0; st == HD_OK && i < N; i++) {
         const float rs = rho[2 * i], rn = rho[2 * i + 1];
-        h->hair[i] = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= HAIR_REACH_SKULL || rn <= HAIR_REACH_NECK);
+        float fade;
+        const float reach = hair_reach(h, segmented, (int)(i % (size_t)h->w) + h->x0, (int)(i / (size_t)h->w) + h->y0,
+                                       rs, &fade);
+        const int hair = h->skin[i] < 0.5f && h->bg[i] < 0.5f && (rs <= reach || rn <= HAIR_REACH_NECK);
+        h->hair[i] = hair ? (rn <= HAIR_REACH_NECK ? 1.0f : fade) : 0.0f;
         person[i] = 1.0f - h->bg[i];
     }
     /* softened within the person: skin and hair share its weight, which fades (ramped) only where
@@ -480,7 +576,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
         for (int x = 0; x < W; x += stride) {
             float n[3], rs, rn;
             proxy_at(f, x, y, n, &rs, &rn);
-            if (rs > SKIN_REACH_SKULL && rn > SKIN_REACH_NECK) continue;
+            if (rs > (f->person.data ? HAIR_REACH_PERSON : SKIN_REACH_SKULL) && rn > SKIN_REACH_NECK) continue;
             x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1, y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
         }
     if (x1 < 0) return HD_OK;
@@ -522,7 +618,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
             for (int k = 0; k < 3; k++) h->normal[(size_t)k * N + i] = m[k] * len;
             h->mesh[i] = mesh_full[p];
         }
-    if (st == HD_OK) st = masks(h, photo, cover, rho);
+    if (st == HD_OK) st = masks(h, f, photo, cover, rho);
     /* hair over the mesh above the brows (a fringe) is hair, not the face's skin */
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {

@@ -41,7 +41,10 @@ typedef enum op_kind {
     OP_PAD,
     OP_MAXPOOL,
     OP_AVGPOOL,
-    OP_RESHAPE
+    OP_RESHAPE,
+    OP_ADDN,
+    OP_RESIZE_BILINEAR,
+    OP_CONV2D_TRANSPOSE
 } op_kind;
 
 static const struct {
@@ -69,6 +72,9 @@ static const struct {
     {"MaxPool", OP_MAXPOOL},
     {"AvgPool", OP_AVGPOOL},
     {"Reshape", OP_RESHAPE},
+    {"AddN", OP_ADDN},
+    {"ResizeBilinear", OP_RESIZE_BILINEAR},
+    {"Conv2DBackpropInput", OP_CONV2D_TRANSPOSE},
 };
 
 typedef enum act_kind { ACT_NONE, ACT_RELU, ACT_RELU6, ACT_PRELU, ACT_LEAKY } act_kind;
@@ -94,6 +100,7 @@ typedef struct tg_node {
     int alpha_in;        /* index into in[] of the PReLU alpha, or -1 */
     float leaky_alpha;
     float pad_value;     /* PadV2 */
+    int align_corners, half_pixel; /* ResizeBilinear */
     int pads[HD_TFJS_MAX_DIMS][2];
     int consumers;       /* how many nodes read this one */
     int is_output;       /* its buffer survives the run (it is, or aliases, a graph output) */
@@ -711,13 +718,75 @@ static hd_status shape_reshape(hd_tfjs_graph *g, tg_node *n, const tg_value *x)
     return HD_OK;
 }
 
+/* attr `key` of a node as a boolean ("b"); absent means 0. */
+static int attr_bool(const cJSON *node, const char *key)
+{
+    return cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(node_attr(node, key), "b"));
+}
+
+/* shape_node of a ResizeBilinear: the size constant (new height, width), and which of TF's three
+ * sampling grids it asks for (align_corners, half_pixel_centers, or neither; not both). */
+static hd_status shape_resize(hd_tfjs_graph *g, tg_node *n, const cJSON *js, const tg_value *x)
+{
+    if (n->nin != 2) return NODE_FAIL(g, n, "expects 2 inputs, has %d", n->nin);
+    if (!is_nhwc1(x)) return NODE_FAIL(g, n, "input must be a float tensor (1, H, W, C)");
+    const tg_node *sn = &g->nodes[n->in[1]];
+    if (sn->kind != OP_CONST || sn->out.size != 2)
+        return NODE_FAIL(g, n, "size '%s' must be a constant int32 (height, width)", sn->name);
+    int32_t h = sn->out.ints[0], w = sn->out.ints[1];
+    if (h < 1 || w < 1 || h > 65536 || w > 65536) return NODE_FAIL(g, n, "size %d x %d out of range", (int)h, (int)w);
+    n->align_corners = attr_bool(js, "align_corners");
+    n->half_pixel = attr_bool(js, "half_pixel_centers");
+    if (n->align_corners && n->half_pixel)
+        return NODE_FAIL(g, n, "align_corners and half_pixel_centers cannot both be set");
+    int dims[4] = {1, h, w, x->dims[3]};
+    if (!set_shape(&n->out, 4, dims)) return NODE_FAIL(g, n, "output too large");
+    return HD_OK;
+}
+
+/* shape_node of a Conv2DBackpropInput (a transposed convolution): inputs (output sizes, filter,
+ * x). The output is the constant sizes (1, H, W, OC); the filter (KH, KW, OC, C) with C the
+ * channels of x; the convolution it transposes must take that output back to x's size. */
+static hd_status shape_transpose(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
+{
+    if (n->nin != 3) return NODE_FAIL(g, n, "expects 3 inputs (sizes, filter, x), has %d", n->nin);
+    const tg_node *sn = &g->nodes[n->in[0]], *fn = &g->nodes[n->in[1]];
+    const tg_value *x = &g->nodes[n->in[2]].out, *f = &fn->out;
+    if (!is_nhwc1(x)) return NODE_FAIL(g, n, "input must be a float tensor (1, H, W, C)");
+    if (sn->kind != OP_CONST || sn->out.size != 4)
+        return NODE_FAIL(g, n, "sizes '%s' must be a constant int32 of 4 values", sn->name);
+    if (fn->kind != OP_CONST || f->ndim != 4) return NODE_FAIL(g, n, "filter '%s' must be a constant of rank 4", fn->name);
+    const int32_t *os = sn->out.ints;
+    if (os[0] != 1 || os[1] < 1 || os[2] < 1 || os[3] != f->dims[2] || os[1] > 65536 || os[2] > 65536)
+        return NODE_FAIL(g, n, "output sizes (%d, %d, %d, %d) do not fit the filter's %d output channels", (int)os[0],
+                         (int)os[1], (int)os[2], (int)os[3], f->dims[2]);
+    if (f->dims[3] != x->dims[3])
+        return NODE_FAIL(g, n, "filter '%s' reads %d channels, the input has %d", fn->name, f->dims[3], x->dims[3]);
+    if (f->dims[0] < 1 || f->dims[1] < 1 || f->dims[2] < 1) return NODE_FAIL(g, n, "empty filter");
+    /* The forward convolution's window, on a tensor of the output's size. */
+    tg_value fwd_in = {0};
+    int din[4] = {1, os[1], os[2], x->dims[3]};
+    if (!set_shape(&fwd_in, 4, din)) return NODE_FAIL(g, n, "output too large");
+    hd_status st = setup_window(g, n, js, &fwd_in, f->dims[0], f->dims[1], x->dims[3]);
+    if (st != HD_OK) return st;
+    if (n->dh != 1 || n->dw != 1) return NODE_FAIL(g, n, "dilations are not supported here");
+    if (n->out.dims[1] != x->dims[1] || n->out.dims[2] != x->dims[2])
+        return NODE_FAIL(g, n, "a %d x %d output convolves to %d x %d, not the input's %d x %d", (int)os[1], (int)os[2],
+                         n->out.dims[1], n->out.dims[2], x->dims[1], x->dims[2]);
+    int dims[4] = {1, os[1], os[2], os[3]};
+    if (!set_shape(&n->out, 4, dims)) return NODE_FAIL(g, n, "output too large");
+    return HD_OK;
+}
+
 /* Infers node n's output shape from its (already shaped) inputs and checks its attributes. */
 static hd_status shape_node(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
 {
     tg_value *x = n->nin > 0 ? &g->nodes[n->in[0]].out : NULL;
+    if (n->nin == 0 && n->kind != OP_PLACEHOLDER && n->kind != OP_CONST) return NODE_FAIL(g, n, "has no input");
     for (int i = 0; i < n->nin; i++) {
         const tg_node *src = &g->nodes[n->in[i]];
-        int wants_ints = (n->kind == OP_PAD && i == 1) || (n->kind == OP_RESHAPE && i == 1);
+        int wants_ints = ((n->kind == OP_PAD || n->kind == OP_RESHAPE || n->kind == OP_RESIZE_BILINEAR) && i == 1) ||
+                         (n->kind == OP_CONV2D_TRANSPOSE && i == 0);
         if (wants_ints != (src->out.ints != NULL))
             return NODE_FAIL(g, n, "input %d ('%s') is %s, expected %s", i, src->name, src->out.ints ? "int32" : "float",
                              wants_ints ? "an int32 constant" : "float");
@@ -758,6 +827,18 @@ static hd_status shape_node(hd_tfjs_graph *g, tg_node *n, const cJSON *js)
         return shape_pad(g, n, x);
     case OP_RESHAPE:
         return shape_reshape(g, n, x);
+    case OP_ADDN:
+        for (int i = 1; i < n->nin; i++) {
+            const tg_value *y = &g->nodes[n->in[i]].out;
+            if (y->ndim != x->ndim || memcmp(y->dims, x->dims, (size_t)x->ndim * sizeof *x->dims) != 0)
+                return NODE_FAIL(g, n, "input %d's shape differs from input 0's", i);
+        }
+        set_shape(&n->out, x->ndim, x->dims);
+        return HD_OK;
+    case OP_RESIZE_BILINEAR:
+        return shape_resize(g, n, js, x);
+    case OP_CONV2D_TRANSPOSE:
+        return shape_transpose(g, n, js);
     }
     return NODE_FAIL(g, n, "unhandled op");
 }
@@ -1380,6 +1461,90 @@ static void run_pad(hd_tfjs_graph *g, tg_node *n)
             }
 }
 
+/* out = the sum of the inputs (all of one shape). */
+static void run_addn(hd_tfjs_graph *g, tg_node *n)
+{
+    float *o = n->out.data;
+    memcpy(o, input_data(g, n, 0), n->out.size * sizeof *o);
+    for (int i = 1; i < n->nin; i++) {
+        const float *x = input_data(g, n, i);
+        for (size_t k = 0; k < n->out.size; k++) o[k] += x[k];
+    }
+}
+
+/* One axis of a bilinear resize: output position o reads the input between lo and hi with weight
+ * t on hi. TF's grids: align_corners maps the first and last samples onto each other (scale
+ * (in - 1) / (out - 1)); half_pixel_centers maps pixel centres (o + 0.5) scale - 0.5; otherwise
+ * o scale, with scale in / out. Positions before the first sample read it. */
+static void resize_axis(int o, int in, int out, int align_corners, int half_pixel, int *lo, int *hi, float *t)
+{
+    double scale = align_corners && out > 1 ? (double)(in - 1) / (out - 1) : (double)in / out;
+    double src = half_pixel ? (o + 0.5) * scale - 0.5 : o * scale;
+    if (src < 0) src = 0;
+    int f = (int)floor(src);
+    if (f > in - 1) f = in - 1;
+    *lo = f;
+    *hi = f + 1 < in ? f + 1 : in - 1;
+    *t = (float)(src - f);
+    if (*hi == *lo) *t = 0.0f;
+}
+
+static void run_resize(hd_tfjs_graph *g, tg_node *n)
+{
+    const tg_value *x = &g->nodes[n->in[0]].out;
+    int H = x->dims[1], W = x->dims[2], C = x->dims[3], Ho = n->out.dims[1], Wo = n->out.dims[2];
+#pragma omp parallel for schedule(static) if ((size_t)Ho * Wo * C > PARALLEL_WORK)
+    for (int oy = 0; oy < Ho; oy++) {
+        int y0, y1;
+        float ty;
+        resize_axis(oy, H, Ho, n->align_corners, n->half_pixel, &y0, &y1, &ty);
+        for (int ox = 0; ox < Wo; ox++) {
+            int x0, x1;
+            float tx;
+            resize_axis(ox, W, Wo, n->align_corners, n->half_pixel, &x0, &x1, &tx);
+            const float *a = x->data + ((size_t)y0 * W + x0) * C, *b = x->data + ((size_t)y0 * W + x1) * C;
+            const float *c = x->data + ((size_t)y1 * W + x0) * C, *d = x->data + ((size_t)y1 * W + x1) * C;
+            float *o = n->out.data + ((size_t)oy * Wo + ox) * C;
+            for (int k = 0; k < C; k++) {
+                float top = a[k] + (b[k] - a[k]) * tx, bottom = c[k] + (d[k] - c[k]) * tx;
+                o[k] = top + (bottom - top) * ty;
+            }
+        }
+    }
+}
+
+/* Transposed convolution (the gradient of a convolution with respect to its input): each output
+ * pixel (y, x) gathers input pixels (iy, ix) with iy sh - pt + ky = y, ix sw - pl + kx = x:
+ * out (y, x, o) = sum x (iy, ix, c) filter (ky, kx, o, c). */
+static void run_transpose(hd_tfjs_graph *g, tg_node *n)
+{
+    const tg_value *x = &g->nodes[n->in[2]].out;
+    const float *w = input_data(g, n, 1);
+    int H = x->dims[1], W = x->dims[2], C = x->dims[3];
+    int Ho = n->out.dims[1], Wo = n->out.dims[2], OC = n->out.dims[3];
+#pragma omp parallel for schedule(static) if ((size_t)Ho * Wo * OC * C > PARALLEL_WORK)
+    for (int oy = 0; oy < Ho; oy++)
+        for (int ox = 0; ox < Wo; ox++) {
+            float *o = n->out.data + ((size_t)oy * Wo + ox) * OC;
+            memset(o, 0, (size_t)OC * sizeof *o);
+            for (int ky = 0; ky < n->kh; ky++) {
+                int ty = oy + n->pad_top - ky;
+                if (ty < 0 || ty % n->sh || ty / n->sh >= H) continue;
+                for (int kx = 0; kx < n->kw; kx++) {
+                    int tx = ox + n->pad_left - kx;
+                    if (tx < 0 || tx % n->sw || tx / n->sw >= W) continue;
+                    const float *xi = x->data + ((size_t)(ty / n->sh) * W + tx / n->sw) * C;
+                    const float *wk = w + ((size_t)ky * n->kw + kx) * OC * C;
+                    for (int k = 0; k < OC; k++) {
+                        float acc = 0.0f;
+                        for (int c = 0; c < C; c++) acc += xi[c] * wk[(size_t)k * C + c];
+                        o[k] += acc;
+                    }
+                }
+            }
+        }
+}
+
 hd_status hd_tfjs_run(hd_tfjs_graph *g, const float *input)
 {
     tg_node *in = &g->nodes[g->input];
@@ -1404,6 +1569,9 @@ hd_status hd_tfjs_run(hd_tfjs_graph *g, const float *input)
         case OP_SIGMOID:
         case OP_TANH: run_unary(g, n); break;
         case OP_PAD: run_pad(g, n); break;
+        case OP_ADDN: run_addn(g, n); break;
+        case OP_RESIZE_BILINEAR: run_resize(g, n); break;
+        case OP_CONV2D_TRANSPOSE: run_transpose(g, n); break;
         }
     }
     /* The graph's outputs (nodes nobody reads) must be finite. */

@@ -1,5 +1,5 @@
 /* tfjs_graph.h: a small runner for TensorFlow.js graph models (model.json + weight shards), enough
- * for MediaPipe's face detector and face mesh: the JSON GraphDef is read with cJSON, the weights
+ * for MediaPipe's face detector, face mesh and selfie segmentation: the JSON GraphDef is read with cJSON, the weights
  * are checked against the manifest and the shard sizes before any byte is read, shapes are inferred
  * once at load, and a run executes the nodes in topological order over NHWC float32 tensors placed
  * in one arena (buffers whose lives do not overlap share memory).
@@ -7,7 +7,8 @@
  * Supported ops: Placeholder, Const, Identity, _FusedConv2D (fused_ops BiasAdd then optionally
  * Relu, Relu6, Prelu or LeakyRelu), Conv2D, DepthwiseConv2dNative, FusedDepthwiseConv2dNative,
  * Add/AddV2/Sub/Mul (numpy broadcasting), Relu, Relu6, Prelu, Sigmoid, Tanh, Pad/PadV2 (constant),
- * MaxPool, AvgPool, Reshape. Padding SAME, VALID or EXPLICIT; data_format NHWC only; batch 1.
+ * MaxPool, AvgPool, Reshape, AddN, ResizeBilinear (its three sampling grids), Conv2DBackpropInput
+ * (a transposed convolution, no dilation). Padding SAME, VALID or EXPLICIT; data_format NHWC only; batch 1.
  * Weight dtypes float32 and int32, with the TF.js quantizations float16, uint8 and uint16.
  * Anything else is refused at load with an error naming the node. */
 #ifndef HD_TFJS_GRAPH_H

@@ -161,6 +161,9 @@ static hd_status smooth_landmarks(hd_video_relighter *v, track *t, const hd_imag
     if (st != HD_OK) return st;
     g.score = f->score;
     memcpy(g.box, f->box, sizeof g.box);
+    /* where the person is was found about the frame's own fit: it moves to the smoothed face */
+    g.person = f->person, g.person_x0 = f->person_x0, g.person_y0 = f->person_y0;
+    memset(&f->person, 0, sizeof f->person);
     hd_aligned_face_free(f);
     *f = g;
     return HD_OK;

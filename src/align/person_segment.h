@@ -1,0 +1,30 @@
+/* person_segment.h: where the person is, about a face: MediaPipe's selfie segmentation network run
+ * on a square crop posed by the face's mesh fit (person_segment.c; docs/face_detect.md, "Where the
+ * person is"). */
+#ifndef HD_PERSON_SEGMENT_H
+#define HD_PERSON_SEGMENT_H
+
+#include "hdnet.h"
+
+#define HD_PERSON_SIZE 256 /* the network's input and output side */
+
+typedef struct hd_person_segmenter hd_person_segmenter;
+
+/* Loads the network: json_path, or NULL for the shipped face-models/selfie.json (data search
+ * path). Refuses a graph whose input is not 256 x 256 x 3 or that has no (1, 256, 256, 1) output. */
+hd_status hd_person_segmenter_load(const char *json_path, hd_person_segmenter **segmenter);
+void hd_person_segmenter_free(hd_person_segmenter *segmenter);
+
+/* The network on an input of HD_PERSON_SIZE^2 RGB pixels in [0, 1] (interleaved, row-major);
+ * *map (HD_PERSON_SIZE^2 probabilities) stays valid until the next run or free. */
+hd_status hd_person_segmenter_run(hd_person_segmenter *segmenter, const float *rgb, const float **map);
+
+/* The crop about face f (photo pixels): its top-left corner and side. */
+void hd_person_crop(const hd_aligned_face *f, float *x0, float *y0, float *side);
+
+/* Fills face->person (replacing what it held) and its window (person_x0, person_y0): the
+ * probability that each pixel of the crop's part of photo (3 channels, the photo the face was
+ * aligned in) shows the person. */
+hd_status hd_person_segment(hd_person_segmenter *segmenter, const hd_image *photo, hd_aligned_face *face);
+
+#endif /* HD_PERSON_SEGMENT_H */

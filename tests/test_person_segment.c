@@ -1,0 +1,225 @@
+/* test_person_segment.c: where the person is (src/align/person_segment.c, issue 36) on a real
+ * portrait (tests/data/faces-london/001/neutral.jpg, plain grey background): the aligner's map is a
+ * probability, sure of the person on the face (nose, cheeks, forehead) and of the background beside
+ * the head and in the top corners; the photo mirrored gives the map mirrored (the crop is placed
+ * by the fit, on either side); a face re-aligned from its landmarks (the video's path) gets the
+ * same map from hd_aligner_segment; a face near the photo's edge gets a window clipped to it; and
+ * the relighting's head follows the map: the bun above the skull's reach is relit, and where the
+ * map says background nothing changes beyond the face mesh, whatever the colour. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "test.h"
+#include "source_dir.h"
+#include "core/core.h"
+#include "align/align.h"
+#include "align/person_segment.h"
+#include "apply/apply.h"
+#include "light/light.h"
+
+static float at(const hd_aligned_face *f, int x, int y)
+{
+    x -= f->person_x0, y -= f->person_y0;
+    if (x < 0 || y < 0 || x >= f->person.width || y >= f->person.height) return -1.0f;
+    return f->person.data[(size_t)y * f->person.width + x];
+}
+
+static float at_landmark(const hd_aligned_face *f, int k)
+{
+    return at(f, (int)f->landmarks[k][0], (int)f->landmarks[k][1]);
+}
+
+static hd_image read_photo(const char *rel)
+{
+    const char *td = getenv("HDNET_TESTDATA");
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", td ? td : "tests/data", rel);
+    hd_image photo = {0};
+    CHECK(hd_image_read_as(path, 3, &photo) == HD_OK);
+    return photo;
+}
+
+static void mirror(hd_image *im)
+{
+    for (int c = 0; c < im->channels; c++)
+        for (int y = 0; y < im->height; y++) {
+            float *row = im->data + ((size_t)c * im->height + y) * im->width;
+            for (int x = 0; x < im->width / 2; x++) {
+                const float t = row[x];
+                row[x] = row[im->width - 1 - x];
+                row[im->width - 1 - x] = t;
+            }
+        }
+}
+
+static void test_map(hd_aligner *al)
+{
+    hd_image photo = read_photo("faces-london/001/neutral.jpg");
+    hd_aligned_face *faces = NULL, *mf = NULL;
+    int n = 0, mn = 0;
+    CHECK(photo.data && hd_aligner_run(al, &photo, 128, &faces, &n) == HD_OK && n == 1);
+    if (n != 1) return;
+    const hd_aligned_face *f = &faces[0];
+    const int W = photo.width, H = photo.height;
+    CHECK(f->person.data && f->person.channels == 1);
+    CHECK(f->person_x0 >= 0 && f->person_y0 >= 0 && f->person_x0 + f->person.width <= W &&
+          f->person_y0 + f->person.height <= H);
+    int in_range = 1;
+    for (size_t p = 0; p < (size_t)f->person.width * f->person.height; p++)
+        in_range &= f->person.data[p] >= 0.0f && f->person.data[p] <= 1.0f;
+    CHECK(in_range);
+    hd_face_frame fr;
+    CHECK(hd_face_frame_of(f, &fr));
+    /* the face: nose tip, cheeks, forehead's top; the background: beside the head at the eyes'
+     * height (1.6 eye distances out, past the ears and the curls' ends), the top corners */
+    const float nose = at_landmark(f, 1), cheek_l = at_landmark(f, 50), cheek_r = at_landmark(f, 280);
+    const float brow = at_landmark(f, 10);
+    const float left = at(f, (int)(fr.mx - 2.2f * fr.e), (int)fr.my), right = at(f, (int)(fr.mx + 2.2f * fr.e), (int)fr.my);
+    printf("person: nose %.3f, cheeks %.3f %.3f, forehead %.3f; background beside the head %.3f %.3f; window %d x %d "
+           "at %d, %d of %d x %d\n", nose, cheek_l, cheek_r, brow, left, right, f->person.width, f->person.height,
+           f->person_x0, f->person_y0, W, H);
+    CHECK(nose > 0.95f && cheek_l > 0.95f && cheek_r > 0.95f && brow > 0.9f);
+    CHECK(left >= 0.0f && left < 0.05f && right >= 0.0f && right < 0.05f);
+    const float corner_l = at(f, f->person_x0 + 2, f->person_y0 + 2);
+    const float corner_r = at(f, f->person_x0 + f->person.width - 3, f->person_y0 + 2);
+    CHECK(corner_l < 0.05f && corner_r < 0.05f);
+
+    /* mirrored: the map mirrored, within the network's own asymmetry */
+    mirror(&photo);
+    CHECK(hd_aligner_run(al, &photo, 128, &mf, &mn) == HD_OK && mn == 1);
+    if (mn == 1 && mf[0].person.data) {
+        double diff = 0;
+        long count = 0, off = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                const float a = at(f, x, y), b = at(&mf[0], W - 1 - x, y);
+                if (a < 0 || b < 0) {
+                    off += (a < 0) != (b < 0);
+                    continue;
+                }
+                diff += fabs(a - b), count++;
+            }
+        printf("mirrored: mean difference %.4f over %ld pixels; %ld pixels in one window only\n", diff / count, count, off);
+        CHECK(count > (long)W * H / 2 && diff / count < 0.03);
+        CHECK(off < (long)(0.02 * W * H));
+    }
+    mirror(&photo);
+
+    /* a face aligned from its landmarks has no map until hd_aligner_segment, which gives the same */
+    hd_aligned_face g;
+    memset(&g, 0, sizeof g);
+    CHECK(hd_align_face(&photo, (const float (*)[3])f->landmarks, 128, &g) == HD_OK);
+    CHECK(g.person.data == NULL);
+    CHECK(hd_aligner_segment(al, &photo, &g) == HD_OK);
+    int same = g.person.data && g.person.width == f->person.width && g.person.height == f->person.height &&
+               g.person_x0 == f->person_x0 && g.person_y0 == f->person_y0;
+    for (size_t p = 0; same && p < (size_t)g.person.width * g.person.height; p++) same = g.person.data[p] == f->person.data[p];
+    CHECK(same);
+    /* a face without a fit is refused */
+    hd_aligned_face none;
+    memset(&none, 0, sizeof none);
+    CHECK(hd_aligner_segment(al, &photo, &none) == HD_ERR_ARG && strstr(hd_error(), "fit"));
+    hd_aligned_face_free(&g);
+
+    /* near the photo's edge: the left 40 % of the photo cut off, the window clipped to what is left */
+    hd_image cut = {0};
+    const int x0 = (int)(0.4f * W);
+    CHECK(hd_image_alloc(&cut, W - x0, H, 3) == HD_OK);
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < H; y++)
+            memcpy(cut.data + ((size_t)c * H + y) * cut.width, photo.data + ((size_t)c * H + y) * W + x0,
+                   (size_t)cut.width * sizeof(float));
+    hd_aligned_face *cf = NULL;
+    int cn = 0;
+    CHECK(hd_aligner_run(al, &cut, 128, &cf, &cn) == HD_OK && cn == 1);
+    if (cn == 1) {
+        CHECK(cf[0].person.data && cf[0].person_x0 == 0 && cf[0].person.width <= cut.width);
+        CHECK(at_landmark(&cf[0], 1) > 0.95f);
+    }
+    hd_aligned_faces_free(cf, cn);
+    hd_image_free(&cut);
+    hd_aligned_faces_free(mf, mn);
+    hd_aligned_faces_free(faces, n);
+    hd_image_free(&photo);
+}
+
+/* The head's weight over the photo (the face's own and the head's, as hd_apply_photo computes it)
+ * with face f as it is. */
+static float *head_weight(const hd_aligned_face *f, const hd_image *photo, hd_head *head)
+{
+    const size_t P = (size_t)photo->width * photo->height;
+    float *w = malloc(P * sizeof *w), own[HD_SH_COEFFS];
+    hd_light_from_direction(0.0f, 0.0f, 1.5f, 0.5f, own);
+    hd_decomposition d;
+    memset(&d, 0, sizeof d);
+    d.normal = f->normal; /* borrowed: the coarse normals as the model's */
+    CHECK(w && hd_photo_face_weight(f, photo, w) == HD_OK);
+    CHECK(hd_head_init(f, &d, photo, own, 0.0f, head) == HD_OK && head->normal);
+    CHECK(hd_head_weight(head, w) == HD_OK);
+    return w;
+}
+
+static void test_head_follows_map(hd_aligner *al)
+{
+    hd_image photo = read_photo("faces-london/001/neutral.jpg");
+    hd_aligned_face *faces = NULL;
+    int n = 0;
+    CHECK(photo.data && hd_aligner_run(al, &photo, 128, &faces, &n) == HD_OK && n == 1);
+    if (n != 1) return;
+    hd_aligned_face *f = &faces[0];
+    const int W = photo.width;
+    const size_t P = (size_t)W * photo.height;
+    hd_head with, without, cleared;
+    float *w_map = head_weight(f, &photo, &with);
+    /* the same face without its map: the colour model alone */
+    hd_image map = f->person;
+    memset(&f->person, 0, sizeof f->person);
+    float *w_colour = head_weight(f, &photo, &without);
+    f->person = map;
+    /* the bun: person pixels above the colour model's window (the skull's reach) take weight */
+    long bun = 0, bun_lit = 0;
+    for (int y = 0; y < without.y0; y++)
+        for (int x = 0; x < W; x++)
+            if (at(f, x, y) > 0.95f) bun++, bun_lit += w_map[(size_t)y * W + x] > 0.2f;
+    printf("above the skull's reach: %ld person pixels, %ld relit (window top %d, with the map %d)\n", bun, bun_lit,
+           without.y0, with.y0);
+    CHECK(bun > 1000 && bun_lit > bun / 2);
+    /* the map set to background everywhere but the face: beyond the face mesh's own weight nothing
+     * changes, though the colour model found skin and hair there */
+    float *face_w = malloc(P * sizeof *face_w);
+    CHECK(face_w && hd_photo_face_weight(f, &photo, face_w) == HD_OK);
+    for (size_t p = 0; p < (size_t)f->person.width * f->person.height; p++) f->person.data[p] = 0.0f;
+    float *w_none = head_weight(f, &photo, &cleared);
+    long colour_beyond = 0, none_beyond = 0;
+    for (size_t p = 0; face_w && p < P; p++) {
+        if (face_w[p] > 0.0f) continue;
+        colour_beyond += w_colour[p] > 0.0f;
+        none_beyond += w_none[p] > 0.0f;
+    }
+    printf("beyond the face mesh: %ld pixels weighted by the colour model, %ld with the map cleared\n", colour_beyond,
+           none_beyond);
+    CHECK(colour_beyond > 10000 && none_beyond == 0);
+    hd_head_free(&with), hd_head_free(&without), hd_head_free(&cleared);
+    free(w_map), free(w_colour), free(w_none), free(face_w);
+    hd_aligned_faces_free(faces, n);
+    hd_image_free(&photo);
+}
+
+int main(void)
+{
+    if (!getenv("HDNET_DATA")) {
+        char dir[4300];
+        snprintf(dir, sizeof dir, "%s/models", test_source_dir());
+        setenv("HDNET_DATA", dir, 1);
+    }
+    hd_aligner *al = NULL;
+    hd_status st = hd_aligner_load(&al);
+    if (st != HD_OK) fprintf(stderr, "%s\n", hd_error());
+    CHECK(st == HD_OK);
+    if (al) {
+        test_map(al);
+        test_head_follows_map(al);
+        hd_aligner_free(al);
+    }
+    return test_summary("person_segment");
+}
