@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
+#include "source_dir.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
 #include "light/light.h"
@@ -92,6 +93,12 @@ static void test_arguments(void)
 
 int main(void)
 {
+    /* the canonical mesh (for the face regions of the fit's layout): the source tree's models/ */
+    if (!getenv("HDNET_DATA")) {
+        char dir[4400];
+        snprintf(dir, sizeof dir, "%s/models", test_source_dir());
+        setenv("HDNET_DATA", dir, 1);
+    }
     test_point_light(-50.0f, 30.0f, 0.3f, 1.0);
     test_point_light(40.0f, -20.0f, 0.4f, 1.0);
     test_point_light(25.0f, 0.0f, 0.5f, 1.0);
