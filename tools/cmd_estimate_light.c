@@ -1,6 +1,6 @@
-/* cmd_estimate_light.c: `hdnet estimate-light`: the face's own light (9 SH coefficients: the fit of
- * the predicted shading on the predicted normals, or L-Net's estimate, docs/usage.md "The source
- * light"): the best-scoring face of a photo (aligned first) or an aligned face texture;
+/* cmd_estimate_light.c: `hdnet estimate-light`: a face's light as a reference (9 SH coefficients:
+ * the fit of the predicted shading on the predicted normals, hd_reference_light, or L-Net's
+ * estimate; docs/usage.md "hdnet estimate-light"), the light `hdnet transfer` takes from it: the best-scoring face of a photo (aligned first) or an aligned face texture;
  * written as a light file, optionally drawn on a sphere, or printed as JSON (docs/usage.md).
  * hd_estimate_face_light and hd_estimate_face_light_photo are the cores; estimate_one is the per-photo step
  * the batch loop (batch.c) runs over every input; the rest is file handling. */
@@ -97,12 +97,13 @@ int cmd_estimate_light(int argc, char **argv)
     };
     const cli_cmd_spec spec = {
         "estimate-light", "IMG|DIR|@LIST ... [-m MODEL] (-o OUT | --json) [--preview SPHERE.png] [--aligned]",
-        "Writes the face's own light, as the relighting rule takes it, for the face in a photo (the\n"
+        "Writes the face's light, as `hdnet transfer --ref` takes it, for the face in a photo (the\n"
         "best-scoring face, aligned first) or, with --aligned, for an aligned face texture (docs/spec.md\n"
         "section 2): 9 spherical-harmonics coefficients in DPR's order and scale, loadable by `hdnet\n"
         "relight --light`. By default (--source-light fit) the least-squares light of the predicted shading\n"
-        "on the predicted normals over the face's skin (the face below the nose weighted a quarter),\n"
-        "pulled a little toward the best ambient + distant light of that shading; with\n"
+        "on the predicted normals over the face's skin (the face below the nose weighted a quarter, each\n"
+        "texel by 1 / max(n_z, 0.2)^2), pulled a little toward the best ambient + distant light of that\n"
+        "shading (not quite the relighting rule's own light of the face; docs/usage.md); with\n"
         "--source-light lnet L-Net's estimate itself (what decompose writes). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and write\n"
         "OUT/REL/NAME.light.txt; a photo that cannot be read or has no face is reported and skipped, and\n"

@@ -46,7 +46,7 @@ int cmd_transfer(int argc, char **argv)
     const cli_cmd_spec spec = {
         "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",
         "Estimates the light of the reference REF with the model (a photo: its best-scoring face; the\n"
-        "face's own light of --source-light, as `hdnet estimate-light` writes it) and\n"
+        "face's light of --source-light, as `hdnet estimate-light` writes it) and\n"
         "relights IMG under it by the rule of `hdnet relight`: every face of a photo, or\n"
         "an aligned face texture with --aligned (masked-out pixels keep the input). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and the reference's\n"

@@ -53,7 +53,7 @@ hd_status hd_estimate_face_light(hd_model *model, const hd_image *image, const h
     hd_decomposition d;
     memset(&d, 0, sizeof d);
     hd_status st = hd_model_decompose(model, image, 1, &d);
-    if (st == HD_OK) st = hd_face_light(&d, mask, source, light);
+    if (st == HD_OK) st = hd_reference_light(&d, mask, source, light);
     hd_decomposition_free(&d);
     return st;
 }

@@ -82,6 +82,31 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
     return st;
 }
 
+hd_status hd_reference_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,
+                             float light[HD_SH_COEFFS])
+{
+    memset(light, 0, HD_SH_COEFFS * sizeof *light);
+    if (!d || source != HD_SOURCE_FIT) return hd_face_light(d, mask, source, light);
+    const int size = d->shading.width;
+    if (!d->shading.data || d->shading.channels != 1 || d->shading.height != size || !d->normal.data ||
+        d->normal.channels != 3 || d->normal.width != size || d->normal.height != size)
+        return hd_fail(HD_ERR_ARG,
+                       "reference light: the decomposition's shading and normals are not square maps of one size");
+    if (mask && (!mask->data || mask->channels != 1))
+        return hd_fail(HD_ERR_ARG, "reference light: a mask has 1 channel");
+    hd_image m = {0}, layout = {0};
+    float *weight = hd_malloc((size_t)size * size * sizeof(float));
+    hd_status st = weight ? HD_OK : HD_ERR_NOMEM;
+    if (st == HD_OK && mask) st = hd_image_resize(mask, size, size, &m);
+    if (st == HD_OK) st = hd_face_light_layout(size, &layout);
+    if (st == HD_OK)
+        st = hd_reference_light_fit(d->normal.data, d->shading.data, layout.data, m.data, size * size, weight, light);
+    hd_image_free(&m);
+    hd_image_free(&layout);
+    free(weight);
+    return st;
+}
+
 hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
                          float guard, const hd_light_rgb *target, hd_image *log_ratio)
 {
