@@ -85,7 +85,7 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
  * probability is under PERSON_LEAST (a busy background no colour test tells from hair: a flag, a
  * shelf); the background's colour stays the background's inside the network's person (the gaps
  * between curls, which its 256 pixels do not resolve), as without it. PERSON_SURE: where the
- * network is sure (outline_share). */
+ * network is sure of the person (outline_share). */
 #define PERSON_LEAST 0.5f
 #define PERSON_SURE 0.95f
 #define PERSON_NONE 0.02f   /* surely not the person: the background's colour sample */
@@ -330,10 +330,10 @@ static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
  * r it is I + a F (r - 1): its weight is a F / I (luminances), a from the colours (I projected on
  * the line from B to F: blond hair and a grey wall may share a luminance, not a colour). Without it the outline's
  * pixels took the whole change, their background's part with it (a white rim round an ear under a
- * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. Where
- * the two luminances are too close to tell a mix (blond hair before a grey wall), the face's
- * segmentation f (when it ran) gives the share: its probability ramped from PERSON_LEAST to
- * PERSON_SURE, so that the change fades over the network's soft edge instead of stopping at once. */
+ * light that brightens it). A share under OUTLINE_LEAST is 0: the pixel is the background's. With
+ * the face's segmentation f, F is carried out from where the network is sure of the person
+ * (PERSON_SURE), and where the two colours are too close to tell a mix the share is its
+ * probability ramped from PERSON_LEAST to PERSON_SURE (the change fades over its soft edge). */
 static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const hd_image *photo, const float *person,
                                float *share)
 {
@@ -357,9 +357,7 @@ static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             share[i] = 1.0f;
-            /* the outline: the person's outermost pixels, and the network's soft edge */
-            const int soft = f->person.data && person_at(f, x + h->x0, y + h->y0) < PERSON_SURE;
-            if (h->bg[i] > 0.5f || (person[i] >= 1.0f && !soft)) continue;
+            if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
             /* a: the pixel's colour projected on the line from B to F */
             float num = 0, den = 0, I[3], F[3];
             for (int c = 0; c < 3; c++) {
@@ -378,11 +376,7 @@ static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const
             }
             float a = num / den;
             a = a < 0 ? 0 : a > 1 ? 1 : a;
-            /* on the network's soft edge, weighted by how sure it is of the person */
-            const float sure = soft ? hd_field_smoothstep((person_at(f, x + h->x0, y + h->y0) - PERSON_LEAST) /
-                                                          (PERSON_SURE - PERSON_LEAST))
-                                    : 1.0f;
-            const float w = a * sure * lf / li;
+            const float w = a * lf / li;
             share[i] = w < OUTLINE_LEAST ? 0 : w > 1 ? 1 : w;
         }
     free(cb), free(cf), free(known);
