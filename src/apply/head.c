@@ -322,7 +322,6 @@ static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
                    (size_t)h->w * sizeof(float));
 }
 
-
 /* The person's share of the light reaching the camera at each pixel of its outline (share, 1
  * elsewhere; the background h->bg and person, 1 inside the person and less on its outline, both
  * final): an outline pixel I mixes the person's colour F (carried out from the person's inside)
