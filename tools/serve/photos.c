@@ -250,6 +250,8 @@ hd_status serve_photo_make(serve_engine *e, const unsigned char *data, size_t n,
         }
         /* the face's own light, as the ratio rule takes it (the page's live preview divides by it) */
         for (int k = 0; k < nfaces && st == HD_OK; k++) st = hd_face_light(&ds[k], &faces[k].mask, HD_SOURCE_FIT, p->faces[k].light);
+        for (int k = 0; k < nfaces && st == HD_OK; k++)
+            st = hd_reference_light(&ds[k], &faces[k].mask, HD_SOURCE_FIT, p->faces[k].ref_light);
         if (st == HD_OK) st = make_maps(p, faces, ds);
     }
     for (int k = 0; ds && k < nfaces; k++) hd_decomposition_free(&ds[k]);

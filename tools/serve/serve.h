@@ -56,6 +56,8 @@ typedef struct serve_face {
     float score;
     float landmarks[HD_FACE_LANDMARKS][2];
     float light[HD_SH_COEFFS]; /* the face's own light, as the ratio rule takes it (hd_face_light) */
+    float ref_light[HD_SH_COEFFS]; /* its light as a reference (hd_reference_light): what `hdnet
+                                    * estimate-light` writes and a transfer from this photo takes */
     int head[4];      /* its head's window x0, y0, w, h in photo pixels (hd_head); w 0: no head */
     float head_guard; /* the head's guard g (hd_head) */
     float head_blur;  /* the blur of the head's log ratios, sigma in photo pixels (hd_head_blur) */

@@ -306,8 +306,8 @@ static enum MHD_Result render(struct MHD_Connection *c, serve_server *s, serve_p
         if (!ref_id) return send_error(c, MHD_HTTP_BAD_REQUEST, "transfer needs ?ref=ID (the photo whose light to take)");
         serve_photo *ref = valid_id(ref_id, strlen(ref_id)) ? serve_store_get(&s->store, ref_id) : NULL;
         if (!ref) return send_error(c, MHD_HTTP_NOT_FOUND, "no photo '%.32s' in memory (unknown, deleted or evicted)", ref_id);
-        /* face 0's light: what hd_estimate_light_photo (hdnet transfer --ref) estimates */
-        memcpy(light, ref->faces[0].light, sizeof light);
+        /* face 0's light as a reference: what hd_estimate_light_photo (hdnet transfer --ref) estimates */
+        memcpy(light, ref->faces[0].ref_light, sizeof light);
         serve_store_release(&s->store, ref);
     } else if (!delight) {
         return send_error(c, MHD_HTTP_NOT_FOUND, "no such operation '%.32s'", op);
@@ -371,7 +371,7 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, serve_server *s, co
         else {
             char name[48];
             snprintf(name, sizeof name, "%s-face%ld.light.txt", p->id, k);
-            ok = send_light_file(c, p->faces[k].light, name);
+            ok = send_light_file(c, p->faces[k].ref_light, name);
         }
     } else if ((strcmp(rest, "/relight") == 0 || strcmp(rest, "/delight") == 0 || strcmp(rest, "/transfer") == 0)) {
         ok = post ? render(c, s, p, rest + 1, r)
