@@ -121,6 +121,37 @@ static void test_map(hd_aligner *al)
     CHECK(hd_aligner_segment(al, &photo, &none) == HD_ERR_ARG && strstr(hd_error(), "fit"));
     hd_aligned_face_free(&g);
 
+    /* a map that does not see the face is dropped: the same landmarks on a flat grey photo (the
+     * network sees no person there; Yale B's tight grey crops did the same to real faces) */
+    hd_image grey = {0};
+    CHECK(hd_image_alloc(&grey, W, H, 3) == HD_OK);
+    for (size_t p = 0; grey.data && p < (size_t)3 * W * H; p++) grey.data[p] = 0.5f;
+    memset(&g, 0, sizeof g);
+    CHECK(hd_align_face(&photo, (const float (*)[3])f->landmarks, 128, &g) == HD_OK);
+    CHECK(hd_aligner_segment(al, &grey, &g) == HD_OK);
+    CHECK(g.person.data == NULL && g.person_x0 == 0 && g.person_y0 == 0);
+    /* the check itself, on maps made by hand over the real face's window: all person, none, and
+     * the face's landmarks just under and at one half */
+    hd_aligned_face h = *f;
+    memset(&h.person, 0, sizeof h.person);
+    CHECK(!hd_person_map_sees_face(&h));
+    CHECK(hd_image_alloc(&h.person, f->person.width, f->person.height, 1) == HD_OK);
+    const size_t M = (size_t)f->person.width * f->person.height;
+    for (size_t p = 0; h.person.data && p < M; p++) h.person.data[p] = 1.0f;
+    CHECK(hd_person_map_sees_face(&h));
+    for (size_t p = 0; h.person.data && p < M; p++) h.person.data[p] = 0.0f;
+    CHECK(!hd_person_map_sees_face(&h));
+    for (size_t p = 0; h.person.data && p < M; p++) h.person.data[p] = 0.49f;
+    CHECK(!hd_person_map_sees_face(&h));
+    for (size_t p = 0; h.person.data && p < M; p++) h.person.data[p] = 0.5f;
+    CHECK(hd_person_map_sees_face(&h));
+    /* a window that misses every landmark sees nothing */
+    h.person_x0 = f->person_x0 + 100000;
+    CHECK(!hd_person_map_sees_face(&h));
+    hd_image_free(&h.person);
+    hd_aligned_face_free(&g);
+    hd_image_free(&grey);
+
     /* near the photo's edge: the left 40 % of the photo cut off, the window clipped to what is left */
     hd_image cut = {0};
     const int x0 = (int)(0.4f * W);

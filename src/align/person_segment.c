@@ -6,7 +6,9 @@
  * does, whatever the photo's size or how many people it holds. Where the crop leaves the photo the
  * photo's edge pixels are repeated; each input pixel averages the photo over its own footprint
  * (a grid of bilinear samples), so a large photo is not aliased. The map is sampled back
- * (bilinear) over the crop's part of the photo: the face's person window. */
+ * (bilinear) over the crop's part of the photo: the face's person window. A map that does not
+ * see the face itself as the person (PERSON_FACE_LEAST over its landmarks) is dropped: the face
+ * then has no map, and the head falls back to telling it from its background by colour. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +20,9 @@
 #define PERSON_SIDE 52.0f /* cm: the hair above the skull's top (13.5 cm up), the shoulders below */
 #define PERSON_DROP 2.0f  /* cm below the mesh's origin (near the nose's tip) */
 #define MAX_SUBSAMPLES 8  /* per axis, per input pixel */
+/* The map must give the face's own landmarks (those in the photo) this mean probability of the
+ * person, or it is dropped (hd_person_map_sees_face). */
+#define PERSON_FACE_LEAST 0.5f
 
 struct hd_person_segmenter {
     hd_tfjs_graph *graph;
@@ -159,5 +164,26 @@ hd_status hd_person_segment(hd_person_segmenter *s, const hd_image *photo, hd_al
             face->person.data[(size_t)y * w + x] = p < 0 ? 0 : p > 1 ? 1 : p;
         }
     }
+    /* a map that does not see the face it was made for is no map (the face alone in a tight,
+     * grey crop under hard light, as in Yale B's: the network saw no person at all, and the head
+     * took the whole face for background) */
+    if (!hd_person_map_sees_face(face)) {
+        hd_image_free(&face->person);
+        face->person_x0 = face->person_y0 = 0;
+    }
     return HD_OK;
+}
+
+int hd_person_map_sees_face(const hd_aligned_face *face)
+{
+    const hd_image *m = &face->person;
+    if (!m->data) return 0;
+    double sum = 0;
+    int count = 0;
+    for (int i = 0; i < HD_FACE_LANDMARKS; i++) {
+        const int x = (int)floorf(face->landmarks[i][0]) - face->person_x0, y = (int)floorf(face->landmarks[i][1]) - face->person_y0;
+        if (x < 0 || y < 0 || x >= m->width || y >= m->height) continue;
+        sum += m->data[(size_t)y * m->width + x], count++;
+    }
+    return count > 0 && sum >= PERSON_FACE_LEAST * count;
 }

@@ -24,7 +24,13 @@ void hd_person_crop(const hd_aligned_face *f, float *x0, float *y0, float *side)
 
 /* Fills face->person (replacing what it held) and its window (person_x0, person_y0): the
  * probability that each pixel of the crop's part of photo (3 channels, the photo the face was
- * aligned in) shows the person. */
+ * aligned in) shows the person. A map that does not see the face (hd_person_map_sees_face) is
+ * dropped: face->person is left empty. */
 hd_status hd_person_segment(hd_person_segmenter *segmenter, const hd_image *photo, hd_aligned_face *face);
+
+/* 1 if face->person sees the face as the person: a mean probability of at least one half over
+ * its landmarks that lie in the map's window. hd_person_segment drops a map that does not (the
+ * face keeps no map: face->person.data NULL), and says so by nothing else: no map is no error. */
+int hd_person_map_sees_face(const hd_aligned_face *face);
 
 #endif /* HD_PERSON_SEGMENT_H */
