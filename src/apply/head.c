@@ -673,9 +673,11 @@ hd_status hd_head_weight(hd_head *h, float *weight)
             /* the hair takes what the skin leaves of the person (skin and hair share it: no dip
              * where they meet) */
             h->wh[i] = (HEAD_HAIR_STRENGTH + (1 - HEAD_HAIR_STRENGTH) * h->near[i]) * fmaxf(0.0f, fminf(hair, 1 - h->ws[i]));
-            /* the background keeps the photo bit for bit, but in the face's interior (where the
-             * face's own weight is whole: an eye's white may have the background's colour) */
-            if (h->bg[i] > 0.5f && !(weight[p] >= 1.0f)) h->ws[i] = h->wh[i] = 0.0f;
+            /* the background keeps the photo bit for bit, but on the face mesh, where it keeps the
+             * face's own weight (an eye's white may have the background's colour; a face taken for
+             * background, a grey photo, faded with the mesh's feather instead of ending in a step
+             * where that weight is whole) */
+            if (h->bg[i] > 0.5f && !(weight[p] >= 1.0f)) h->ws[i] = weight[p] * h->mesh[i], h->wh[i] = 0.0f;
             /* beyond the face, a change too small to see is none (the masks' blur reaches past
              * the person by a few pixels at 1e-4) */
             if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) h->ws[i] = h->wh[i] = 0.0f;
