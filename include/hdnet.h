@@ -297,6 +297,15 @@ typedef enum { HD_WHITE_BALANCE_OFF = 0, HD_WHITE_BALANCE_EYES = 1 } hd_white_ba
 /* Sets it for every later call with this model (not while another thread decomposes with it). */
 hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode);
 
+/* What relighting a photo does to its background. KEEP (the default): the input, bit for bit.
+ * RELIGHT: the background takes the change of a flat wall facing the camera under the same lights
+ * (one factor per channel, from the first face's own light; docs/usage.md, "The background"); it
+ * needs the person segmentation to find each face's person (else HD_ERR_ARG). Photos only:
+ * an aligned texture has no background. Sets it for every later call with this model. */
+typedef enum { HD_BACKGROUND_KEEP = 0, HD_BACKGROUND_RELIGHT = 1 } hd_background;
+hd_status hd_model_set_background(hd_model *model, hd_background mode);
+hd_background hd_model_background(const hd_model *model);
+
 /* Decomposes `count` aligned face images (1-4 channels are converted to RGB; any size: each is
  * resized to the model size), in batches of up to 4. Results are at the model size; out[i] is
  * filled for images[i] (free each with hd_decomposition_free); on failure nothing is left

@@ -112,7 +112,7 @@ static void test_head(void)
     hd_image out = {0};
     CHECK(hd_image_alloc(&out, W, H, 3) == HD_OK);
     memcpy(out.data, photo.data, 3 * P * sizeof(float));
-    CHECK(hd_ratio_apply(&field, weight, HD_BRIGHTNESS_KEEP, &out) == HD_OK);
+    CHECK(hd_ratio_apply(&field, weight, HD_BRIGHTNESS_KEEP, &out, NULL) == HD_OK);
     int kept = 1, changed = 0;
     for (size_t p = 0; p < P; p++)
         for (int c = 0; c < 3; c++) {

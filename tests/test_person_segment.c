@@ -236,6 +236,80 @@ static void test_head_follows_map(hd_aligner *al)
     hd_image_free(&photo);
 }
 
+/* The background relit as a flat wall (hd_model_set_background, backdrop.c): the model's change of
+ * a wall facing the camera, one factor per channel, where the person is not; the person as with
+ * the background kept; the face's own light changes nothing. */
+static void test_background(hd_aligner *al)
+{
+    hd_image photo = read_photo("faces-london/001/neutral.jpg");
+    hd_model *model = NULL;
+    CHECK(hd_model_load(NULL, &model) == HD_OK);
+    if (!photo.data || !model) {
+        hd_model_free(model);
+        hd_image_free(&photo);
+        return;
+    }
+    float l[HD_SH_COEFFS];
+    hd_light_from_direction(60.0f, 20.0f, 1.5f, 0.3f, l);
+    hd_light_rgb target;
+    hd_light_rgb_from_grey(l, &target);
+    target.sh[0][0] *= 1.2f; /* a warm light: the channels' factors differ */
+    hd_apply_request q = {&target, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f, NULL};
+    hd_apply_result keep, wall;
+    CHECK(hd_apply_photo(model, al, &photo, &q, &keep) == HD_OK);
+    CHECK(hd_model_set_background(model, HD_BACKGROUND_RELIGHT) == HD_OK &&
+          hd_model_background(model) == HD_BACKGROUND_RELIGHT);
+    CHECK(hd_apply_photo(model, al, &photo, &q, &wall) == HD_OK);
+    const size_t P = (size_t)photo.width * photo.height;
+    if (keep.nfaces == 1 && wall.nfaces == 1) {
+        const hd_aligned_face *f = &wall.faces[0];
+        /* the wall's factor, from the definition: shading at n = (0, 0, 1), the rule's guard */
+        const float n0[3] = {0, 0, 1};
+        float s, t[3];
+        hd_sh_shading_map(n0, NULL, 1, wall.face_light[0], &s);
+        s = s > 0 ? s : 0;
+        const float g = HD_RATIO_GUARD * s;
+        for (int c = 0; c < 3; c++) {
+            hd_sh_shading_map(n0, NULL, 1, target.sh[c], &t[c]);
+            t[c] = ((t[c] > 0 ? t[c] : 0) + g) / (s + g);
+        }
+        CHECK(fabsf(t[0] - t[1]) > 0.05f && fabsf(t[1] - 1.0f) > 0.05f);
+        /* the corners (sure background, the map's 0): each channel by the wall's factor */
+        double worst = 0;
+        long corners = 0, self_changed = 0, person_differs = 0, person = 0;
+        for (int y = 0; y < 40; y++)
+            for (int x = 0; x < 40; x++) {
+                const size_t p = (size_t)y * photo.width + x;
+                CHECK(at(f, x, y) < 0.02f);
+                for (int c = 0; c < 3; c++) {
+                    const float in = photo.data[c * P + p], want = fminf(1.0f, in * t[c]);
+                    worst = fmax(worst, fabs(wall.relit[0].data[c * P + p] - want));
+                    CHECK(keep.relit[0].data[c * P + p] == in);
+                }
+                corners++;
+            }
+        printf("background as a wall: factors %.4f %.4f %.4f, worst corner pixel off by %.2e over %ld pixels\n", t[0],
+               t[1], t[2], worst, corners);
+        CHECK(worst < 1e-5);
+        for (size_t p = 0; p < P; p++) {
+            /* the face under its own light: nothing moves, the background included */
+            for (int c = 0; c < 3; c++) self_changed += wall.self.data[c * P + p] != photo.data[c * P + p];
+            /* where the person is sure, the picture is the one with the background kept */
+            const int x = (int)(p % (size_t)photo.width), y = (int)(p / (size_t)photo.width);
+            if (at(f, x, y) >= 1.0f) {
+                person++;
+                for (int c = 0; c < 3; c++) person_differs += wall.relit[0].data[c * P + p] != keep.relit[0].data[c * P + p];
+            }
+        }
+        CHECK(self_changed == 0);
+        CHECK(person > 10000 && person_differs == 0);
+    }
+    hd_apply_result_free(&keep);
+    hd_apply_result_free(&wall);
+    hd_model_free(model);
+    hd_image_free(&photo);
+}
+
 int main(void)
 {
     if (!getenv("HDNET_DATA")) {
@@ -250,6 +324,7 @@ int main(void)
     if (al) {
         test_map(al);
         test_head_follows_map(al);
+        test_background(al);
         hd_aligner_free(al);
     }
     return test_summary("person_segment");

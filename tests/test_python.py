@@ -98,6 +98,34 @@ balanced = hdnet.Model(white_balance=True)
 drift_on = np.abs(balanced.decompose(warm)[0] - balanced.decompose(dim)[0])[face_mask].mean()
 drift_off = np.abs(model.decompose(warm)[0] - model.decompose(dim)[0])[face_mask].mean()
 check(drift_on < 0.5 * drift_off, "white_balance: albedo drift %.4f under a warm cast, %.4f without" % (drift_on, drift_off))
+# the person segmentation of a face (Face.person, its window at person_origin): sure of the nose
+f0 = faces[0]
+check(f0.person is not None and f0.person.ndim == 3 and f0.person.shape[2] == 1, "Face.person is missing")
+px, py = f0.person_origin
+nx, ny = int(f0.landmarks[1, 0]) - px, int(f0.landmarks[1, 1]) - py
+check(f0.person[ny, nx, 0] > 0.9, "Face.person at the nose: %.3f" % f0.person[ny, nx, 0])
+# background="relight": as hdnet relight --background relight, byte for byte; the background moves
+# by one factor per channel where the person is surely not (the default keeps it)
+walled = hdnet.Model(background="relight")
+check(walled.background == "relight" and model.background == "keep", "Model.background")
+cli("relight", photo_path, "--dir", "40,20", "--background", "relight", "-o", "cli_wall.pfm")
+wall = walled.relight(photo, direction=(40, 20))
+check(np.array_equal(wall, hdnet.imread("cli_wall.pfm")), "background= differs from hdnet relight --background relight")
+sure_bg = np.zeros(photo.shape[:2], bool)
+h, w = f0.person.shape[:2]
+sure_bg[py:py + h, px:px + w] = f0.person[..., 0] < 0.01
+kept = model.relight(photo, direction=(40, 20))
+check(sure_bg.sum() > 1000 and np.array_equal(kept[sure_bg], photo[sure_bg]), "the kept background changed")
+ratio = wall[sure_bg] / np.maximum(photo[sure_bg], 1e-6)
+lit = photo[sure_bg] > 0.05
+spread = max(np.ptp(ratio[:, c][lit[:, c]]) for c in range(3))
+check(spread < 0.02 and abs(np.median(ratio) - 1) > 0.01, "the background's factor spreads %.4f" % spread)
+raises_bg = False
+try:
+    hdnet.Model(background="wall")
+except ValueError:
+    raises_bg = True
+check(raises_bg, "background='wall' was accepted")
 tex = faces[0].texture
 check(np.array_equal(model.relight(tex, preset=1, aligned=True), model.relight(tex, light=hdnet.light_preset(1), aligned=True)),
       "aligned relight: preset= and light= differ")

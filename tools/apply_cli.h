@@ -39,9 +39,17 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
 /* The rows every photo-applying command (relight, delight, transfer) ends its option table with:
  * the source light, the clip options of video_cli.h, the detector's minimum score, threads, quiet,
  * and the table's terminator (the file includes video_cli.h for the clip rows). */
-#define CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet)                                               \
-    CLI_OPT_SOURCE_LIGHT_ROW(source), CLI_OPT_CLIP_ROWS(clip), CLI_OPT_MIN_SCORE_ROW(min_score),                      \
+#define CLI_OPT_APPLY_TAIL_ROWS(source, background, clip, min_score, threads, quiet)                                   \
+    CLI_OPT_SOURCE_LIGHT_ROW(source), CLI_OPT_BACKGROUND_ROW(background), CLI_OPT_CLIP_ROWS(clip),                   \
+        CLI_OPT_MIN_SCORE_ROW(min_score),                                                                              \
         CLI_OPT_THREADS_ROW(threads), CLI_OPT_QUIET_ROW(quiet), {NULL, 0, 0, NULL, NULL, NULL}
+#define CLI_OPT_BACKGROUND_ROW(var)                                                                                     \
+    {"background", 0, CLI_OPT_STRING, &(var), "keep|relight",                                                           \
+     "a photo's background: keep it bit for bit (default), or relight it as a flat wall under the same light "        \
+     "(docs/usage.md, \"The background\")"}
+/* Sets model's background mode from a --background value (NULL: leave the default); a clip (clip
+ * nonzero) keeps its background. Returns 0, or the usage error's exit code. */
+int cli_background_set(const cli_cmd_spec *spec, const char *value, int clip, hd_model *model);
 /* Reads a --source-light value; a usage error (nonzero) when it is neither. */
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source);
 

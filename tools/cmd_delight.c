@@ -24,7 +24,7 @@ static hd_status delight_one(void *ctx, const cli_input *in, const char *out, in
 
 int cmd_delight(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *source = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *source = NULL, *background = NULL;
     int aligned = 0, threads = 0, quiet = 0;
     cli_clip clip = {0};
     float min_score = cli_min_score_default();
@@ -35,7 +35,7 @@ int cmd_delight(int argc, char **argv)
          "folder: the output folder (OUT/NAME.delit.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         CLI_OPT_ALIGNED_ROW(aligned),
-        CLI_OPT_APPLY_TAIL_ROWS(source, clip, min_score, threads, quiet),
+        CLI_OPT_APPLY_TAIL_ROWS(source, background, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "delight", "IMG|DIR|@LIST ... [-m MODEL] -o OUT [--aligned [--mask M.png]]",
@@ -56,7 +56,8 @@ int cmd_delight(int argc, char **argv)
                          min_score, NULL, NULL};
     int rc = CLI_EXIT_FAIL;
     if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
-        (source && (code = cli_source_light_parse(&spec, source, &run.request.source)))) {
+        (source && (code = cli_source_light_parse(&spec, source, &run.request.source))) ||
+        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip), NULL))) {
         free(pos);
         return code;
     }
@@ -76,6 +77,8 @@ int cmd_delight(int argc, char **argv)
     }
     if (cli_inputs_collect(&in, pos, npos) != HD_OK || hd_model_load(model_path, &run.model) != HD_OK)
         rc = cli_report("delight");
+    else if ((code = cli_background_set(&spec, background, 0, run.model)))
+        rc = code;
     else
         rc = cli_batch_run("delight", "delit", CLI_NO_FACE_ALIGNED, &in, out, single, quiet, delight_one, &run, NULL);
     if (run.model) hd_model_free(run.model);

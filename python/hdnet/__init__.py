@@ -94,6 +94,8 @@ _model_size = _sig("hd_model_size", ctypes.c_int, ctypes.c_void_p)
 _model_decompose = _sig("hd_model_decompose", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_Decomposition))
 _decomposition_free = _sig("hd_decomposition_free", None, _P(_Decomposition))
 _model_set_white_balance = _sig("hd_model_set_white_balance", _st, ctypes.c_void_p, ctypes.c_int)
+_model_set_background = _sig("hd_model_set_background", _st, ctypes.c_void_p, ctypes.c_int)
+_model_background = _sig("hd_model_background", ctypes.c_int, ctypes.c_void_p)
 _aligner_load = _sig("hd_aligner_load", _st, _P(ctypes.c_void_p))
 _aligner_free = _sig("hd_aligner_free", None, ctypes.c_void_p)
 _aligner_run = _sig("hd_aligner_run", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_P(_AlignedFace)),
@@ -209,12 +211,17 @@ def _light_arg(light, preset, direction):
 
 class Face:
     """One face found in a photo: texture (S x S x 3), mask (S x S x 1), normal (S x S x 3, camera
-    frame), landmarks (468 x 3: photo x, y and depth), box (x0, y0, x1, y1) and score."""
+    frame), landmarks (468 x 3: photo x, y and depth), box (x0, y0, x1, y1) and score; person, the
+    probability that each pixel of a window of the photo shows this face's person (h x w x 1, the
+    person segmentation; None where it did not see the face) and person_origin, the window's top-left
+    photo pixel (x0, y0)."""
 
     def __init__(self, f):
         self.texture = _from_image(f.texture)
         self.mask = _from_image(f.mask)
         self.normal = _from_image(f.normal)
+        self.person = _from_image(f.person) if f.person.data else None
+        self.person_origin = (f.person_x0, f.person_y0)
         self.landmarks = np.array(f.landmarks, dtype=np.float32)
         self.box = tuple(f.box)
         self.score = f.score
@@ -267,15 +274,27 @@ class Model:
     the photo's size) or, with aligned=True, an aligned face texture (the result is a texture).
     keep_brightness (relight, transfer): match the input's mean brightness (the default).
     white_balance=True: divide the colour cast read from the whites of the eyes out of each face
-    before decomposing it (hd_model_set_white_balance; off by default)."""
+    before decomposing it (hd_model_set_white_balance; off by default).
+    background="relight": a photo's background is relit too, as a flat wall under the same light
+    (hd_model_set_background; "keep", the default, leaves it bit for bit)."""
 
-    def __init__(self, path=None, white_balance=False):
+    _BACKGROUNDS = {"keep": 0, "relight": 1}
+
+    def __init__(self, path=None, white_balance=False, background="keep"):
+        if background not in self._BACKGROUNDS:
+            raise ValueError("background: expected 'keep' or 'relight', got %r" % (background,))
         p = ctypes.c_void_p()
         _check(_model_load(None if path is None else os.fsencode(path), ctypes.byref(p)))
         self._p = p
         self.size = _model_size(p)
         if white_balance:
             _check(_model_set_white_balance(p, 1))
+        _check(_model_set_background(p, self._BACKGROUNDS[background]))
+
+    @property
+    def background(self):
+        """What relighting a photo does to its background: "keep" or "relight"."""
+        return "relight" if _model_background(self._p) == 1 else "keep"
 
     def __del__(self):
         if getattr(self, "_p", None):

@@ -134,7 +134,7 @@ static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, con
         hd_image_free(&field);
         field = sized;
     }
-    if (st == HD_OK) st = hd_ratio_apply(&field, feather, jb->brightness, jb->out);
+    if (st == HD_OK) st = hd_ratio_apply(&field, feather, jb->brightness, jb->out, NULL);
     hd_image_free(&field);
     return st;
 }
@@ -214,7 +214,8 @@ hd_status hd_apply_texture(hd_model *model, const hd_image *texture, const hd_im
 
 /* One job on face f of a photo (out is the photo's copy, with earlier faces already changed). */
 static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, const float *feather,
-                           const hd_head *head, hd_relight_rule rule, const face_rule *fr, const job *jb)
+                           const hd_head *head, hd_relight_rule rule, const face_rule *fr, const job *jb,
+                           double *offset)
 {
     hd_image tex_out = {0}, field = {0}, warped = {0}, coverage = {0};
     hd_status st;
@@ -231,7 +232,7 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     for (int c = 0; st == HD_OK && c < warped.channels; c++)
         st = hd_field_fill(warped.data + (size_t)c * P, coverage.data, warped.width, warped.height);
     if (st == HD_OK) st = hd_head_apply(head, fr->source, jb->target, &warped); /* beyond the mesh (head.c) */
-    if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out);
+    if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out, offset);
     hd_image_free(&field);
     hd_image_free(&warped);
     hd_image_free(&coverage);
@@ -266,7 +267,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
     if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, &head);
     if (st == HD_OK) st = hd_head_weight(&head, feather);
-    if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb);
+    if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, NULL);
     hd_head_free(&head);
     free(feather);
     return named(op, st);
@@ -292,7 +293,14 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
     job *jobs = hd_malloc((size_t)(q->count + 2) * sizeof *jobs);
     const size_t P = (size_t)photo->width * (size_t)photo->height;
     float *feather = q->rule == HD_RULE_RATIO ? hd_malloc((P ? P : 1) * sizeof(float)) : NULL;
-    if (!r->face_light || !jobs || (q->rule == HD_RULE_RATIO && !feather)) st = HD_ERR_NOMEM;
+    /* the background as a backdrop (backdrop.c): where the people are, and the first face's
+     * brightness offset of each job */
+    const int backdrop = q->rule == HD_RULE_RATIO && hd_model_background(model) == HD_BACKGROUND_RELIGHT;
+    float *people = backdrop ? hd_calloc(P ? P : 1, sizeof(float)) : NULL;
+    double *offsets = backdrop ? hd_calloc((size_t)(q->count + 2), sizeof(double)) : NULL;
+    int njobs = 0;
+    if (!r->face_light || !jobs || (q->rule == HD_RULE_RATIO && !feather) || (backdrop && (!people || !offsets)))
+        st = HD_ERR_NOMEM;
     for (int k = 0; k < n && st == HD_OK; k++) {
         const hd_aligned_face *f = &faces[k];
         hd_decomposition d;
@@ -306,11 +314,28 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
         if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, &head);
         if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
+        if (st == HD_OK && backdrop && !f->person.data)
+            st = hd_fail(HD_ERR_ARG, "the background is relit only where the person segmentation "
+                                            "finds the person, and it did not about face %d", k);
+        if (st == HD_OK && backdrop) hd_backdrop_add_person(f, feather, photo->width, photo->height, people);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
-        for (int i = 0; i < m && st == HD_OK; i++) st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i]);
+        for (int i = 0; i < m && st == HD_OK; i++)
+            st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i], backdrop && k == 0 ? &offsets[i] : NULL);
+        if (k == 0) njobs = m;
         hd_head_free(&head);
         hd_decomposition_free(&d);
     }
+    /* the backdrop under each job's light, from the first face's own */
+    if (st == HD_OK && backdrop && n > 0) {
+        jobs_of(q, r, r->face_light[0], jobs);
+        for (int i = 0; i < njobs; i++) {
+            float lr[3];
+            hd_backdrop_log_ratio(r->face_light[0], jobs[i].target, q->guard, lr);
+            hd_backdrop_apply(lr, offsets[i], people, jobs[i].out);
+        }
+    }
+    free(people);
+    free(offsets);
     free(jobs);
     free(feather);
     if (st != HD_OK) {

@@ -90,8 +90,21 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
  * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
  * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the w-weighted mean luminance),
  * limited per pixel so that no channel passes 1 (one factor for the pixel, so the colour is kept).
- * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place. */
-hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image);
+ * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place.
+ * offset (may be NULL) gets log k. */
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image,
+                         double *offset);
+
+/* The background as a flat backdrop under the same light (backdrop.c; hd_model_set_background):
+ * people = max(people, weight, face f's person map) over the W x H photo (weight: the face's and
+ * head's weights, as hd_head_weight leaves them); */
+void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people);
+/* the per-channel log change of a wall facing the camera from source to target (NULL: flat light),
+ * with the rule's guard (a share of the wall's source shading; <= 0: HD_RATIO_GUARD); */
+void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb *target, float guard,
+                           float log_ratio[3]);
+/* image *= exp((1 - people) * (log_ratio + offset)), each channel clamped to 1. */
+void hd_backdrop_apply(const float log_ratio[3], double offset, const float *people, hd_image *image);
 
 /* The rule on one face of a photo already aligned (f) and decomposed (d, which may be smoothed, as
  * a video does): photo (3 channels, the frame's size; earlier faces may be changed already) is

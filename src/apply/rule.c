@@ -172,8 +172,10 @@ static double relit_lum(const hd_image *lr, const float *w, const hd_image *im, 
     return acc;
 }
 
-hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image)
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image,
+                         double *offset)
 {
+    if (offset) *offset = 0.0;
     if (!image || !image->data || image->channels != 3 || !log_ratio || !log_ratio->data ||
         (log_ratio->channels != 1 && log_ratio->channels != 3) || log_ratio->width != image->width ||
         log_ratio->height != image->height)
@@ -213,6 +215,7 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
         }
         t = goal > 0 ? 0.5 * (lo + hi) : 0.0;
     }
+    if (offset) *offset = t;
     for (size_t i = 0; changes && i < n; i++) {
         size_t p = idx[i];
         float w = weight[p];

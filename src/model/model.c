@@ -25,6 +25,7 @@ struct hd_model {
     pthread_mutex_t lock; /* guards idle and eyes */
     run_state *idle[HD_DECOMPOSE_BATCH + 1]; /* idle run states by batch size */
     hd_white_balance white_balance; /* hd_model_set_white_balance's; HD_WHITE_BALANCE_OFF from hd_model_load */
+    hd_background background;       /* hd_model_set_background's; HD_BACKGROUND_KEEP from hd_model_load */
     hd_image eyes; /* the eye openings at the model size (hd_eyes_uv), made by the first call that needs them */
 };
 
@@ -98,6 +99,17 @@ hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode)
     model->white_balance = mode;
     return HD_OK;
 }
+
+hd_status hd_model_set_background(hd_model *model, hd_background mode)
+{
+    if (!model) return hd_fail(HD_ERR_ARG, "background: no model");
+    if (mode != HD_BACKGROUND_KEEP && mode != HD_BACKGROUND_RELIGHT)
+        return hd_fail(HD_ERR_ARG, "background: unknown mode %d", (int)mode);
+    model->background = mode;
+    return HD_OK;
+}
+
+hd_background hd_model_background(const hd_model *model) { return model ? model->background : HD_BACKGROUND_KEEP; }
 
 /* The eye contours at the model size, made once. */
 static hd_status model_eyes(hd_model *m, const float **eyes)

@@ -1,0 +1,57 @@
+/* backdrop.c: the background relit as a flat backdrop under the same light (issue 36; docs/usage.md,
+ * "The background"), for hd_model_set_background(HD_BACKGROUND_RELIGHT). By default a photo's
+ * background keeps the input bit for bit. With the option, every pixel that is not the person
+ * (one minus the larger of the people's weights and their segmentation) takes the change of a
+ * flat wall facing the camera (normal (0, 0, 1)) from the first face's own light to the target,
+ * by the same ratio rule and guard as the face, with the first face's brightness factor:
+ *     out = in * exp(b * (log((s(n0, target) + g) / (s(n0, source) + g)) + t)),   b = 1 - people.
+ * A distant light lights a flat wall evenly, so the change is one factor per channel; the person's
+ * outline mixes the person's change and the wall's by its share. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "core/core.h"
+#include "apply/apply.h"
+
+void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people)
+{
+    const size_t P = (size_t)W * H;
+    for (size_t p = 0; p < P; p++)
+        if (weight[p] > people[p]) people[p] = weight[p] > 1.0f ? 1.0f : weight[p];
+    const hd_image *m = &f->person;
+    for (int y = 0; m->data && y < m->height; y++)
+        for (int x = 0; x < m->width; x++) {
+            const int gx = x + f->person_x0, gy = y + f->person_y0;
+            if (gx < 0 || gy < 0 || gx >= W || gy >= H) continue;
+            float *q = &people[(size_t)gy * W + gx];
+            const float v = m->data[(size_t)y * m->width + x];
+            if (v > *q) *q = v > 1.0f ? 1.0f : v;
+        }
+}
+
+void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb *target, float guard,
+                           float log_ratio[3])
+{
+    const float n0[3] = {0.0f, 0.0f, 1.0f};
+    const float s = fmaxf(hd_sh_shade(source, n0), 0.0f);
+    const float g = (guard > 0 && isfinite(guard) ? guard : HD_RATIO_GUARD) * (s > 1e-6f ? s : 1e-6f);
+    for (int c = 0; c < 3; c++) {
+        const float t = target ? fmaxf(hd_sh_shade(target->sh[c], n0), 0.0f) : 1.0f;
+        log_ratio[c] = t == s ? 0.0f : logf((t + g) / (s + g));
+    }
+}
+
+void hd_backdrop_apply(const float log_ratio[3], double offset, const float *people, hd_image *image)
+{
+    const size_t P = (size_t)image->width * image->height;
+    for (int c = 0; c < 3; c++) {
+        if (log_ratio[c] == 0.0f && offset == 0.0) continue;
+        float *v = image->data + (size_t)c * P;
+        for (size_t p = 0; p < P; p++) {
+            const float b = 1.0f - (people[p] < 0 ? 0.0f : people[p] > 1 ? 1.0f : people[p]);
+            if (!(b > 0)) continue;
+            const float o = v[p] * (float)exp(b * (log_ratio[c] + offset));
+            v[p] = o > 1.0f ? 1.0f : o;
+        }
+    }
+}
