@@ -97,7 +97,8 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
 
 /* The background as a flat backdrop under the same light (backdrop.c; hd_model_set_background):
  * people = max(people, weight, face f's person map) over the W x H photo (weight: the face's and
- * head's weights, as hd_head_weight leaves them); */
+ * head's weights, as hd_head_weight leaves them; the map's last row carried on down the photo,
+ * the body below its window); */
 void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people);
 /* the per-channel log change of a wall facing the camera from source to target (NULL: flat light),
  * with the rule's guard (a share of the wall's source shading; <= 0: HD_RATIO_GUARD); */

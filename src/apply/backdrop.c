@@ -1,7 +1,8 @@
 /* backdrop.c: the background relit as a flat backdrop under the same light (issue 36; docs/usage.md,
  * "The background"), for hd_model_set_background(HD_BACKGROUND_RELIGHT). By default a photo's
  * background keeps the input bit for bit. With the option, every pixel that is not the person
- * (one minus the larger of the people's weights and their segmentation) takes the change of a
+ * (one minus the larger of the people's weights and their segmentation, whose last row goes on
+ * down the photo: the body below the segmented crop) takes the change of a
  * flat wall facing the camera (normal (0, 0, 1)) from the first face's own light to the target,
  * by the same ratio rule and guard as the face, with the first face's brightness factor:
  *     out = in * exp(b * (log((s(n0, target) + g) / (s(n0, source) + g)) + t)),   b = 1 - people.
@@ -18,11 +19,20 @@ void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W
     const size_t P = (size_t)W * H;
     for (size_t p = 0; p < P; p++)
         if (weight[p] > people[p]) people[p] = weight[p] > 1.0f ? 1.0f : weight[p];
+    /* the map's window, and below it the body going on: its last row carried down to the photo's
+     * bottom (the nearest of its pixels beyond its sides); above and beside the window, nothing */
     const hd_image *m = &f->person;
-    for (int y = 0; m->data && y < m->height; y++)
-        for (int x = 0; x < m->width; x++) {
-            const int gx = x + f->person_x0, gy = y + f->person_y0;
-            if (gx < 0 || gy < 0 || gx >= W || gy >= H) continue;
+    if (!m->data || m->width < 1 || m->height < 1) return;
+    const int y0 = f->person_y0 > 0 ? f->person_y0 : 0;
+    for (int gy = y0; gy < H; gy++)
+        for (int gx = 0; gx < W; gx++) {
+            int x = gx - f->person_x0, y = gy - f->person_y0;
+            if (y >= m->height) {
+                y = m->height - 1;
+                x = x < 0 ? 0 : x >= m->width ? m->width - 1 : x;
+            } else if (x < 0 || x >= m->width) {
+                continue;
+            }
             float *q = &people[(size_t)gy * W + gx];
             const float v = m->data[(size_t)y * m->width + x];
             if (v > *q) *q = v > 1.0f ? 1.0f : v;
