@@ -41,6 +41,20 @@ exists out/a.relit.png out/sub/deeper/b.relit.png
 expect 0 "$HDNET" relight photos/a.png $M --preset 2 -o one.png
 cmp -s one.png out/a.relit.png || fail "a photo relit in a batch differs from the photo relit alone"
 
+# two inputs of one name would write the same outputs: refused before any work, both named
+mkdir -p twin/x twin/y
+cp photos/a.png twin/x/a.png && cp photos/a.png twin/y/a.png
+expect_saying 1 "twin/x/a.png and twin/y/a.png would write the same outputs (OUT/a.*)" \
+    "$HDNET" relight twin/x/a.png twin/y/a.png $M --preset 2 -o twinout
+[ ! -e twinout ] || fail "outputs were written for inputs of one name"
+# given as their folder, each keeps its path below it
+expect 0 "$HDNET" relight twin $M --preset 2 -o twinout
+exists twinout/x/a.relit.png twinout/y/a.relit.png
+# a.png and a.jpg side by side in a folder: refused too
+cp photos/a.png twin/x/a.jpg
+expect_saying 1 "would write the same outputs (OUT/x/a.*)" "$HDNET" delight twin $M -o twindl
+[ ! -e twindl ] || fail "outputs were written for a.png and a.jpg of one folder"
+
 # @list: files and folders, comments and blank lines skipped; a faceless photo alone is exit 1
 printf '# the photos\nphotos/a.png\n\nphotos/sub/deeper\n' >list.txt
 expect 0 "$HDNET" delight @list.txt $M -o dl

@@ -193,6 +193,33 @@ static hd_status take_share(cli_inputs *in)
     return HD_OK;
 }
 
+static int by_rel(const void *a, const void *b)
+{
+    const cli_input *x = *(const cli_input *const *)a, *y = *(const cli_input *const *)b;
+    const int c = strcmp(x->rel, y->rel);
+    return c ? c : strcmp(x->path, y->path);
+}
+
+/* Two inputs of one name (a/face.jpg and b/face.jpg given as files; face.png beside face.jpg in a
+ * folder) would write the same outputs, the second over the first: refused before any work. */
+static hd_status check_names(const cli_inputs *in)
+{
+    if (in->count < 2) return HD_OK;
+    const cli_input **v = malloc((size_t)in->count * sizeof *v);
+    if (!v) return hd_fail(HD_ERR_NOMEM, "out of memory");
+    for (int i = 0; i < in->count; i++) v[i] = &in->v[i];
+    qsort(v, (size_t)in->count, sizeof *v, by_rel);
+    hd_status st = HD_OK;
+    for (int i = 1; i < in->count && st == HD_OK; i++)
+        if (strcmp(v[i - 1]->rel, v[i]->rel) == 0)
+            st = hd_fail(HD_ERR_ARG,
+                         "%s and %s would write the same outputs (OUT/%s.*): give their folder, so that each "
+                         "keeps its path below it, or run them apart",
+                         v[i - 1]->path, v[i]->path, v[i]->rel);
+    free(v);
+    return st;
+}
+
 hd_status cli_inputs_collect(cli_inputs *in, char *const *args, int nargs)
 {
     if (cli_mpi_init(NULL, NULL)) return hd_fail(HD_ERR_ARG, "cannot start as an MPI rank (see above)");
@@ -200,7 +227,8 @@ hd_status cli_inputs_collect(cli_inputs *in, char *const *args, int nargs)
         hd_status st = args[i][0] == '@' && args[i][1] ? add_list(in, args[i] + 1) : add_argument(in, args[i]);
         if (st != HD_OK) return st;
     }
-    return take_share(in);
+    hd_status st = check_names(in);
+    return st != HD_OK ? st : take_share(in);
 }
 
 void cli_inputs_free(cli_inputs *in)
