@@ -315,8 +315,10 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, &head);
         if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
         if (st == HD_OK && backdrop && !f->person.data)
-            st = hd_fail(HD_ERR_ARG, "the background is relit only where the person segmentation "
-                                            "finds the person, and it did not about face %d", k);
+            st = hd_fail(HD_ERR_ARG,
+                         "the background is relit only where the person segmentation finds the person, "
+                         "and it did not about face %d",
+                         k);
         if (st == HD_OK && backdrop) hd_backdrop_add_person(f, feather, photo->width, photo->height, people);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)
