@@ -189,7 +189,7 @@ test: tests
 	@HDNET=$(abspath $(BUILD)/hdnet) BUILD=$(abspath $(BUILD)) sh tests/run.sh $(abspath $(TESTBIN))
 
 check:
-	$(MAKE) BUILD=build-check OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
+	$(MAKE) BUILD=build-check OPT="-O2 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all" \
 	    LDFLAGS="-fsanitize=address,undefined" HD_CHECK=1 test
 
 # The portable build (no oneDNN: what a machine without libdnnl-dev gets) in build-portable: every C
@@ -243,7 +243,7 @@ tsan:
 	$(MAKE) BUILD=build-tsan CC=clang HD_DNNL=0 OPT="-O1 -g -fno-omit-frame-pointer -fsanitize=thread" \
 	    LDFLAGS=-fsanitize=thread build-tsan/tests/test_threads
 	mkdir -p build-tsan/run && cd build-tsan/run && OMP_TOOL_LIBRARIES=$(ARCHER) OPENBLAS_NUM_THREADS=1 \
-	    TSAN_OPTIONS="halt_on_error=1 exitcode=66 ignore_noninstrumented_modules=1" HDNET_TESTDATA=$(abspath tests/data) ../tests/test_threads
+	    TSAN_OPTIONS="halt_on_error=1 exitcode=66 ignore_noninstrumented_modules=1" HDNET_TESTDATA=$(abspath tests/data) HD_CHECK=1 ../tests/test_threads
 
 # `hdnet serve` in a real browser: Debian's chromium (/usr/bin/chromium) driven by playwright-core
 # from npm (tests/browser/package-lock.json). The screenshots go to SHOT and SHOT-live (docs/img/serve.png for the docs).
