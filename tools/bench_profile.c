@@ -133,6 +133,7 @@ int bench_profile(const bench_args *a)
     double per = 1.0 / repeats, pstep = (m1.wall - m0.wall) * per, pcpu = (m1.cpu - m0.cpu) * per;
     const hd_prof_entry *tab;
     int n = hd_prof_table(&tab);
+    if (n < 0) n = 0;
     int T = a->threads;
 
     fprintf(o, "\nTraining step profile: %dx%d, width %d, batch %d pairs (micro-batch %d), %d threads, %d steps\n",
