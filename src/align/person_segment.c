@@ -181,7 +181,8 @@ int hd_person_map_sees_face(const hd_aligned_face *face)
     double sum = 0;
     int count = 0;
     for (int i = 0; i < HD_FACE_LANDMARKS; i++) {
-        const int x = (int)floorf(face->landmarks[i][0]) - face->person_x0, y = (int)floorf(face->landmarks[i][1]) - face->person_y0;
+        const int x = (int)floorf(face->landmarks[i][0]) - face->person_x0;
+        const int y = (int)floorf(face->landmarks[i][1]) - face->person_y0;
         if (x < 0 || y < 0 || x >= m->width || y >= m->height) continue;
         sum += m->data[(size_t)y * m->width + x], count++;
     }
