@@ -188,3 +188,23 @@ int hd_person_map_sees_face(const hd_aligned_face *face)
     }
     return count > 0 && sum >= PERSON_FACE_LEAST * count;
 }
+
+void hd_person_map_max(const hd_aligned_face *f, int W, int H, int body, float *to)
+{
+    const hd_image *m = &f->person;
+    if (!m->data || m->width < 1 || m->height < 1) return;
+    const int y_end = body ? H : f->person_y0 + m->height;
+    for (int gy = f->person_y0 > 0 ? f->person_y0 : 0; gy < y_end && gy < H; gy++)
+        for (int gx = 0; gx < W; gx++) {
+            int x = gx - f->person_x0, y = gy - f->person_y0;
+            if (y >= m->height) { /* below the window, with body: its last row, its nearest pixel */
+                y = m->height - 1;
+                x = x < 0 ? 0 : x >= m->width ? m->width - 1 : x;
+            } else if (x < 0 || x >= m->width) {
+                continue;
+            }
+            const float v = m->data[(size_t)y * m->width + x];
+            float *q = &to[(size_t)gy * W + gx];
+            if (v > *q) *q = v;
+        }
+}

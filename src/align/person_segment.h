@@ -33,4 +33,9 @@ hd_status hd_person_segment(hd_person_segmenter *segmenter, const hd_image *phot
  * face keeps no map: face->person.data NULL), and says so by nothing else: no map is no error. */
 int hd_person_map_sees_face(const hd_aligned_face *face);
 
+/* to = max(to, face f's map) over the W x H photo f was aligned in, within the map's window; with
+ * body, below the window too, where the body goes on: the window's last row carried down (the
+ * nearest of its pixels beyond its sides). A face without a map leaves to as it is. */
+void hd_person_map_max(const hd_aligned_face *f, int W, int H, int body, float *to);
+
 #endif /* HD_PERSON_SEGMENT_H */

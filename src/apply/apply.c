@@ -298,7 +298,6 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
     const int backdrop = q->rule == HD_RULE_RATIO && hd_model_background(model) == HD_BACKGROUND_RELIGHT;
     float *people = backdrop ? hd_calloc(P ? P : 1, sizeof(float)) : NULL;
     double *offsets = backdrop ? hd_calloc((size_t)(q->count + 2), sizeof(double)) : NULL;
-    int njobs = 0;
     if (!r->face_light || !jobs || (q->rule == HD_RULE_RATIO && !feather) || (backdrop && (!people || !offsets)))
         st = HD_ERR_NOMEM;
     for (int k = 0; k < n && st == HD_OK; k++) {
@@ -323,14 +322,13 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)
             st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i], backdrop && k == 0 ? &offsets[i] : NULL);
-        if (k == 0) njobs = m;
         hd_head_free(&head);
         hd_decomposition_free(&d);
     }
     /* the backdrop under each job's light, from the first face's own */
     if (st == HD_OK && backdrop && n > 0) {
-        jobs_of(q, r, r->face_light[0], jobs);
-        for (int i = 0; i < njobs; i++) {
+        const int m = jobs_of(q, r, r->face_light[0], jobs);
+        for (int i = 0; i < m; i++) {
             float lr[3];
             hd_backdrop_log_ratio(r->face_light[0], jobs[i].target, q->guard, lr);
             hd_backdrop_apply(lr, offsets[i], people, jobs[i].out);

@@ -13,30 +13,14 @@
 #include <string.h>
 #include "core/core.h"
 #include "apply/apply.h"
+#include "align/person_segment.h"
 
 void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people)
 {
     const size_t P = (size_t)W * H;
     for (size_t p = 0; p < P; p++)
         if (weight[p] > people[p]) people[p] = weight[p] > 1.0f ? 1.0f : weight[p];
-    /* the map's window, and below it the body going on: its last row carried down to the photo's
-     * bottom (the nearest of its pixels beyond its sides); above and beside the window, nothing */
-    const hd_image *m = &f->person;
-    if (!m->data || m->width < 1 || m->height < 1) return;
-    const int y0 = f->person_y0 > 0 ? f->person_y0 : 0;
-    for (int gy = y0; gy < H; gy++)
-        for (int gx = 0; gx < W; gx++) {
-            int x = gx - f->person_x0, y = gy - f->person_y0;
-            if (y >= m->height) {
-                y = m->height - 1;
-                x = x < 0 ? 0 : x >= m->width ? m->width - 1 : x;
-            } else if (x < 0 || x >= m->width) {
-                continue;
-            }
-            float *q = &people[(size_t)gy * W + gx];
-            const float v = m->data[(size_t)y * m->width + x];
-            if (v > *q) *q = v > 1.0f ? 1.0f : v;
-        }
+    hd_person_map_max(f, W, H, 1, people);
 }
 
 void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb *target, float guard,
@@ -54,14 +38,14 @@ void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb 
 void hd_backdrop_apply(const float log_ratio[3], double offset, const float *people, hd_image *image)
 {
     const size_t P = (size_t)image->width * image->height;
-    for (int c = 0; c < 3; c++) {
-        if (log_ratio[c] == 0.0f && offset == 0.0) continue;
-        float *v = image->data + (size_t)c * P;
-        for (size_t p = 0; p < P; p++) {
-            const float b = 1.0f - (people[p] < 0 ? 0.0f : people[p] > 1 ? 1.0f : people[p]);
-            if (!(b > 0)) continue;
-            const float o = v[p] * (float)exp(b * (log_ratio[c] + offset));
-            v[p] = o > 1.0f ? 1.0f : o;
+    for (size_t p = 0; p < P; p++) {
+        const float b = 1.0f - (people[p] < 0 ? 0.0f : people[p] > 1 ? 1.0f : people[p]);
+        if (!(b > 0)) continue;
+        for (int c = 0; c < 3; c++) {
+            if (log_ratio[c] == 0.0f && offset == 0.0) continue;
+            float *v = &image->data[(size_t)c * P + p];
+            const float o = *v * (float)exp(b * (log_ratio[c] + offset));
+            *v = o > 1.0f ? 1.0f : o;
         }
     }
 }

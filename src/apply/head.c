@@ -233,18 +233,19 @@ static int background(const hd_image *photo, const hd_aligned_face *f, float med
     for (size_t p = 0; f->person.data && p < (size_t)f->person.width * f->person.height; p++)
         sure += f->person.data[p] < PERSON_NONE;
     const int near = f->person.data && (double)sure >= BG_NEAR_LEAST * f->person.width * f->person.height;
+    /* the pixels sampled: the window's sure background, or the photo's border */
+    const int x0 = near ? f->person_x0 : 0, y0 = near ? f->person_y0 : 0;
+    const int x1 = near ? x0 + f->person.width : W, y1 = near ? y0 + f->person.height : H;
     for (int k = 0; k < NFEAT; k++) {
         size_t n = 0;
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) {
-                if (near ? !(person_at(f, x, y) < PERSON_NONE && x >= f->person_x0 && y >= f->person_y0 &&
-                             x < f->person_x0 + f->person.width && y < f->person_y0 + f->person.height)
-                         : !(x < bw || y < bw || x >= W - bw || y >= H - bw))
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++) {
+                if (near ? !(person_at(f, x, y) < PERSON_NONE) : !(x < bw || y < bw || x >= W - bw || y >= H - bw))
                     continue;
                 const size_t p = (size_t)y * W + x;
-                float f[F_TEXTURE];
-                hd_colour_features(photo->data[p], photo->data[P + p], photo->data[2 * P + p], f);
-                v[n++] = k < F_TEXTURE ? f[k] : 0.0f;
+                float feat[F_TEXTURE];
+                hd_colour_features(photo->data[p], photo->data[P + p], photo->data[2 * P + p], feat);
+                v[n++] = k < F_TEXTURE ? feat[k] : 0.0f;
             }
         if (!n) {
             free(v);
@@ -382,7 +383,6 @@ static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const
     return st;
 }
 
-
 /* How far the hair reaches at photo pixel (x, y), as the skull's normalised radius, and the weight
  * of hair at radius rs there (1 up to the fade). */
 static float hair_reach(const hd_head *h, int segmented, int x, int y, float rs, float *weight)
@@ -406,7 +406,6 @@ static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT]
            ll >= med[F_LOG_LUM] - SKIN_DARKER && ll <= med[F_LOG_LUM] + SKIN_BRIGHTER &&
            tx <= med[F_TEXTURE] + SKIN_MAD * mad[F_TEXTURE] + SKIN_TEXTURE;
 }
-
 
 /* The skin, hair and background masks of the window (the photo's colours, the proxy's reach). The
  * background is 0 or 1, tested on the photo's own pixels (no blur, so the person's outline stays

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include "core/core.h"
 #include "apply/apply.h"
+#include "align/person_segment.h"
 
 /* Whether "dir/NAME.ext" has the companion "dir/NAME<suffix>" beside it. */
 static int has_companion(const char *path, const char *suffix)
@@ -101,15 +102,7 @@ hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd
     if (st == HD_OK) st = hd_image_alloc(&m->normal, W, H, 3);
     if (st == HD_OK) st = hd_image_alloc(&m->mask, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&m->person, W, H, 1);
-    for (int k = 0; k < m->nfaces && st == HD_OK; k++) {
-        const hd_image *pm = &m->faces[k].person;
-        for (int y = 0; y < pm->height; y++)
-            for (int x = 0; x < pm->width; x++) {
-                float *to = &m->person.data[(size_t)(y + m->faces[k].person_y0) * W + x + m->faces[k].person_x0];
-                const float v = pm->data[(size_t)y * pm->width + x];
-                if (v > *to) *to = v;
-            }
-    }
+    for (int k = 0; k < m->nfaces && st == HD_OK; k++) hd_person_map_max(&m->faces[k], W, H, 0, m->person.data);
     /* the worst-scoring face first, so that the best one is painted last and wins */
     for (int k = m->nfaces - 1; k >= 0 && st == HD_OK; k--) {
         const hd_aligned_face *f = &m->faces[k];
