@@ -1,9 +1,10 @@
 /* cmd_estimate_light.c: `hdnet estimate-light`: a face's light as a reference (9 SH coefficients:
  * the fit of the predicted shading on the predicted normals, hd_reference_light, or L-Net's
- * estimate; docs/usage.md "hdnet estimate-light"), the light `hdnet transfer` takes from it: the best-scoring face of a photo (aligned first) or an aligned face texture;
- * written as a light file, optionally drawn on a sphere, or printed as JSON (docs/usage.md).
- * hd_estimate_face_light and hd_estimate_face_light_photo are the cores; estimate_one is the per-photo step
- * the batch loop (batch.c) runs over every input; the rest is file handling. */
+ * estimate; docs/usage.md "hdnet estimate-light"), the light `hdnet transfer` takes from it: the
+ * best-scoring face of a photo (aligned first) or an aligned face texture; written as a light
+ * file, optionally drawn on a sphere, or printed as JSON (docs/usage.md). hd_estimate_face_light
+ * and hd_estimate_face_light_photo are the cores; estimate_one is the per-photo step the batch
+ * loop (batch.c) runs over every input; the rest is file handling. */
 #include <stdlib.h>
 #include <string.h>
 #include "apply_cli.h"
