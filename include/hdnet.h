@@ -299,7 +299,8 @@ hd_status hd_model_set_white_balance(hd_model *model, hd_white_balance mode);
 
 /* What relighting a photo does to its background. KEEP (the default): the input, bit for bit.
  * RELIGHT: the background takes the change of a flat wall facing the camera under the same lights
- * (one factor per channel, from the first face's own light; docs/usage.md, "The background"); it
+ * (one factor per channel, from the first face's own light; docs/usage.md, "The background"), and
+ * the person's body below the chin, clothes and all, takes the light on a torso proxy; it
  * needs the person segmentation to find each face's person (else HD_ERR_ARG). Photos only:
  * an aligned texture has no background. Sets it for every later call with this model. */
 typedef enum { HD_BACKGROUND_KEEP = 0, HD_BACKGROUND_RELIGHT = 1 } hd_background;

@@ -44,7 +44,7 @@ int main(int argc, char **argv)
         st = hd_model_decompose(model, &faces[k].texture, 1, &d);
         if (st == HD_OK) st = hd_face_light(&d, &faces[k].mask, HD_SOURCE_FIT, light);
         if (st == HD_OK) st = hd_photo_face_weight(&faces[k], &photo, one);
-        if (st == HD_OK) st = hd_head_init(&faces[k], &d, &photo, light, 0.0f, &head);
+        if (st == HD_OK) st = hd_head_init(&faces[k], &d, &photo, light, 0.0f, 0, &head);
         if (st == HD_OK) st = hd_head_weight(&head, one);
         for (size_t p = 0; st == HD_OK && p < P; p++)
             if (one[p] > weight[p]) weight[p] = one[p];

@@ -49,7 +49,7 @@ static void test_head(void)
     hd_head head;
     CHECK(weight && face_w && hd_photo_face_weight(f, &photo, face_w) == HD_OK);
     memcpy(weight, face_w, P * sizeof *weight);
-    CHECK(hd_head_init(f, &d, &photo, own, 0.0f, &head) == HD_OK);
+    CHECK(hd_head_init(f, &d, &photo, own, 0.0f, 0, &head) == HD_OK);
     CHECK(head.normal != NULL);
     CHECK(hd_head_weight(&head, weight) == HD_OK);
     CHECK(hd_warp_back(f, &f->mask, NULL, &warped, &cover) == HD_OK);
@@ -112,7 +112,7 @@ static void test_head(void)
     hd_image out = {0};
     CHECK(hd_image_alloc(&out, W, H, 3) == HD_OK);
     memcpy(out.data, photo.data, 3 * P * sizeof(float));
-    CHECK(hd_ratio_apply(&field, weight, HD_BRIGHTNESS_KEEP, &out, NULL) == HD_OK);
+    CHECK(hd_ratio_apply(&field, weight, NULL, HD_BRIGHTNESS_KEEP, &out, NULL) == HD_OK);
     int kept = 1, changed = 0;
     for (size_t p = 0; p < P; p++)
         for (int c = 0; c < 3; c++) {

@@ -5,7 +5,10 @@
  * by the fit, on either side); a face re-aligned from its landmarks (the video's path) gets the
  * same map from hd_aligner_segment; a face near the photo's edge gets a window clipped to it; and
  * the relighting's head follows the map: the bun above the skull's reach is relit, and where the
- * map says background nothing changes beyond the face mesh, whatever the colour. */
+ * map says background nothing changes beyond the face mesh, whatever the colour. With the
+ * background relit (a wall), the corners take the wall's factor exactly, the head from the mouth up
+ * is the picture with the background kept (the brightness too), and the body well below the chin
+ * is relit (without the option, the shirt keeps the input). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -185,7 +188,7 @@ static float *head_weight(const hd_aligned_face *f, const hd_image *photo, hd_he
     memset(&d, 0, sizeof d);
     d.normal = f->normal; /* borrowed: the coarse normals as the model's */
     CHECK(w && hd_photo_face_weight(f, photo, w) == HD_OK);
-    CHECK(hd_head_init(f, &d, photo, own, 0.0f, head) == HD_OK && head->normal);
+    CHECK(hd_head_init(f, &d, photo, own, 0.0f, 0, head) == HD_OK && head->normal);
     CHECK(hd_head_weight(head, w) == HD_OK);
     return w;
 }
@@ -254,7 +257,7 @@ static void test_background(hd_aligner *al)
     hd_light_rgb target;
     hd_light_rgb_from_grey(l, &target);
     target.sh[0][0] *= 1.2f; /* a warm light: the channels' factors differ */
-    hd_apply_request q = {&target, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_FREE, HD_SOURCE_FIT, 0.0f, NULL};
+    hd_apply_request q = {&target, 1, 0, 1, HD_RULE_RATIO, HD_BRIGHTNESS_KEEP, HD_SOURCE_FIT, 0.0f, NULL};
     hd_apply_result keep, wall;
     CHECK(hd_apply_photo(model, al, &photo, &q, &keep) == HD_OK);
     CHECK(hd_model_set_background(model, HD_BACKGROUND_RELIGHT) == HD_OK &&
@@ -274,35 +277,67 @@ static void test_background(hd_aligner *al)
             t[c] = ((t[c] > 0 ? t[c] : 0) + g) / (s + g);
         }
         CHECK(fabsf(t[0] - t[1]) > 0.05f && fabsf(t[1] - 1.0f) > 0.05f);
-        /* the corners (sure background, the map's 0): each channel by the wall's factor */
-        double worst = 0;
-        long corners = 0, self_changed = 0, person_differs = 0, person = 0;
+        /* the corners (sure background, the map's 0): each channel by the wall's factor, times the one
+         * factor that keeps the head's brightness (the same for every pixel: read off one corner pixel) */
+        double worst = 0, k = 0;
+        for (int y = 0; y < 40 && k == 0; y++)
+            for (int x = 0; x < 40 && k == 0; x++) {
+                const size_t p = (size_t)y * photo.width + x;
+                const float in = photo.data[P + p], out = wall.relit[0].data[P + p];
+                if (in > 0.05f && out < 0.95f) k = out / (in * t[1]);
+            }
+        CHECK(k > 0.5 && k < 2.0);
+        long corners = 0, self_changed = 0, person = 0;
         for (int y = 0; y < 40; y++)
             for (int x = 0; x < 40; x++) {
                 const size_t p = (size_t)y * photo.width + x;
                 CHECK(at(f, x, y) < 0.02f);
                 for (int c = 0; c < 3; c++) {
-                    const float in = photo.data[c * P + p], want = fminf(1.0f, in * t[c]);
+                    const float in = photo.data[c * P + p], want = fminf(1.0f, (float)(in * t[c] * k));
                     worst = fmax(worst, fabs(wall.relit[0].data[c * P + p] - want));
                     CHECK(keep.relit[0].data[c * P + p] == in);
                 }
                 corners++;
             }
-        printf("background as a wall: factors %.4f %.4f %.4f, worst corner pixel off by %.2e over %ld pixels\n", t[0],
-               t[1], t[2], worst, corners);
+        printf("background as a wall: factors %.4f %.4f %.4f, brightness %.4f, worst corner pixel off by %.2e over "
+               "%ld pixels\n", t[0], t[1], t[2], k, worst, corners);
         CHECK(worst < 1e-5);
+        hd_face_frame fr;
+        CHECK(hd_face_frame_of(f, &fr));
+        long body = 0, body_relit = 0, body_kept = 0;
+        float worst_person = 0;
         for (size_t p = 0; p < P; p++) {
             /* the face under its own light: nothing moves, the background included */
             for (int c = 0; c < 3; c++) self_changed += wall.self.data[c * P + p] != photo.data[c * P + p];
-            /* where the person is sure, the picture is the one with the background kept */
             const int x = (int)(p % (size_t)photo.width), y = (int)(p / (size_t)photo.width);
-            if (at(f, x, y) >= 1.0f) {
+            const float height = hd_face_height(&fr, x, y);
+            int inside = 1; /* the person sure over 13 x 13 pixels: not a strand against the wall */
+            for (int dy = -6; dy <= 6 && inside; dy++)
+                for (int dx = -6; dx <= 6 && inside; dx++) inside = at(f, x + dx, y + dy) >= 1.0f;
+            if (!inside) continue;
+            if (height > -0.5f) {
+                /* the head from the mouth up is the picture with the background kept (the
+                 * brightness kept over the head, not the body: within a level's rounding) */
                 person++;
-                for (int c = 0; c < 3; c++) person_differs += wall.relit[0].data[c * P + p] != keep.relit[0].data[c * P + p];
+                for (int c = 0; c < 3; c++)
+                    worst_person = fmaxf(worst_person, fabsf(wall.relit[0].data[c * P + p] - keep.relit[0].data[c * P + p]));
+            } else if (height < -2.0f) {
+                /* the shirt and the shoulders, well below the chin: relit with the background;
+                 * without it only the skin of the neck's reach changes */
+                float dw = 0, dk = 0;
+                for (int c = 0; c < 3; c++) {
+                    dw = fmaxf(dw, fabsf(wall.relit[0].data[c * P + p] - photo.data[c * P + p]));
+                    dk = fmaxf(dk, fabsf(keep.relit[0].data[c * P + p] - photo.data[c * P + p]));
+                }
+                body++, body_relit += dw > 2.0f / 255, body_kept += dk == 0.0f;
             }
         }
+        printf("the body (%ld sure pixels two eye distances below the eyes): %ld relit with the background, %ld kept "
+               "without; the head from the mouth up (%ld sure pixels): worst difference %.2f levels\n",
+               body, body_relit, body_kept, person, 255 * worst_person);
         CHECK(self_changed == 0);
-        CHECK(person > 10000 && person_differs == 0);
+        CHECK(person > 10000 && worst_person < 2.5f / 255);
+        CHECK(body > 10000 && body_relit > body * 9 / 10 && body_kept > body / 2);
     }
     hd_apply_result_free(&keep);
     hd_apply_result_free(&wall);

@@ -134,7 +134,7 @@ static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, con
         hd_image_free(&field);
         field = sized;
     }
-    if (st == HD_OK) st = hd_ratio_apply(&field, feather, jb->brightness, jb->out, NULL);
+    if (st == HD_OK) st = hd_ratio_apply(&field, feather, NULL, jb->brightness, jb->out, NULL);
     hd_image_free(&field);
     return st;
 }
@@ -232,7 +232,10 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
     for (int c = 0; st == HD_OK && c < warped.channels; c++)
         st = hd_field_fill(warped.data + (size_t)c * P, coverage.data, warped.width, warped.height);
     if (st == HD_OK) st = hd_head_apply(head, fr->source, jb->target, &warped); /* beyond the mesh (head.c) */
-    if (st == HD_OK) st = hd_ratio_apply(&warped, feather, jb->brightness, jb->out, offset);
+    float *level = NULL; /* the brightness kept over the head, not the body's clothes */
+    if (st == HD_OK && jb->brightness == HD_BRIGHTNESS_KEEP) st = hd_head_level(head, feather, &level);
+    if (st == HD_OK) st = hd_ratio_apply(&warped, feather, level, jb->brightness, jb->out, offset);
+    free(level);
     hd_image_free(&field);
     hd_image_free(&warped);
     hd_image_free(&coverage);
@@ -265,7 +268,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
     if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, &head);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, 0, &head);
     if (st == HD_OK) st = hd_head_weight(&head, feather);
     if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, NULL);
     hd_head_free(&head);
@@ -311,14 +314,14 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         hd_head head;
         memset(&head, 0, sizeof head);
         if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
-        if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, &head);
+        if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, backdrop, &head);
         if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
         if (st == HD_OK && backdrop && !f->person.data)
             st = hd_fail(HD_ERR_ARG,
                          "the background is relit only where the person segmentation finds the person, "
                          "and it did not about face %d",
                          k);
-        if (st == HD_OK && backdrop) hd_backdrop_add_person(f, feather, photo->width, photo->height, people);
+        if (st == HD_OK && backdrop) st = hd_backdrop_add_person(f, feather, &head, photo->width, photo->height, people);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)
             st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i], backdrop && k == 0 ? &offsets[i] : NULL);

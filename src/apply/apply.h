@@ -88,20 +88,18 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
 
 /* Applies a log-ratio field (1 or 3 planes, at the image's size) to image with feather weights w
  * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
- * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the w-weighted mean luminance),
+ * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the mean luminance weighted by level,
+ * over the pixels where w > 0; level NULL: w),
  * limited per pixel so that no channel passes 1 (one factor for the pixel, so the colour is kept).
  * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place.
  * offset (may be NULL) gets log k. */
-hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image,
-                         double *offset);
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, const float *level, hd_brightness brightness,
+                         hd_image *image, double *offset);
 
-/* The background as a flat backdrop under the same light (backdrop.c; hd_model_set_background):
- * people = max(people, weight, face f's person map) over the W x H photo (weight: the face's and
- * head's weights, as hd_head_weight leaves them; the map's last row carried on down the photo,
- * the body below its window); */
-void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people);
-/* the per-channel log change of a wall facing the camera from source to target (NULL: flat light),
- * with the rule's guard (a share of the wall's source shading; <= 0: HD_RATIO_GUARD); */
+/* The background as a flat backdrop (backdrop.c; hd_model_set_background; its people:
+ * hd_backdrop_add_person, below hd_head): the per-channel log change of a wall facing the camera
+ * from source to target (NULL: flat light), with the rule's guard (a share of the wall's source
+ * shading; <= 0: HD_RATIO_GUARD); */
 void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb *target, float guard,
                            float log_ratio[3]);
 /* image *= exp((1 - people) * (log_ratio + offset)), each channel clamped to 1. */
@@ -128,20 +126,37 @@ typedef struct hd_head {
     float *mesh;   /* how much of the face's own field holds: 1 on the mesh, 0 beyond a band */
     float *skin, *hair; /* soft masks, 0 .. 1 */
     float *bg;          /* 1 where the colour is the background's (the photo's border) */
+    float *body;        /* the body's weight below the chin (hd_head_init's body; else 0) ... */
+    float *zone;        /* ... and the body's zone (the torso's reach below the chin) before its outline */
     float *ws, *wh;     /* the skin's and the hair's weights (hd_head_weight) */
+    float *wb;          /* the body's share of ws (with the body only; else NULL) */
     float *near;        /* 1 at the skin's edge, falling into the hair */
 } hd_head;
 /* Sets up face f's head (d: its decomposition, at the model's size; source: its own light; guard
- * as hd_ratio_field's). Without a frame (degenerate landmarks) h stays empty, and hd_head_apply
+ * as hd_ratio_field's). body (with the face's person segmentation only): the person below the chin,
+ * clothes and all, takes the change too, on a torso proxy (the background relit as well:
+ * HD_BACKGROUND_RELIGHT). Without a frame (degenerate landmarks) h stays empty, and hd_head_apply
  * leaves the face's field alone. Free with hd_head_free. */
 hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
-                       const float source[HD_SH_COEFFS], float guard, hd_head *h);
+                       const float source[HD_SH_COEFFS], float guard, int body, hd_head *h);
 void hd_head_free(hd_head *h);
 /* The weights of face f over its head, once per face: weight (photo-sized) holds the face's own
  * (hd_photo_face_weight) and becomes, in the head's window, the skin's (1 on the skin, the face's
  * where the mesh's field holds: eyes, lips, brows) plus the hair's (a share, 0.5, where there is
  * no skin); the background keeps 0. */
 hd_status hd_head_weight(hd_head *h, float *weight);
+/* The weights of hd_head_weight without the body's share, for the brightness to keep the head's
+ * mean, not the clothes' (hd_ratio_apply's level): a new photo-sized array in *level, or NULL
+ * where h has no body (the weights as they are). */
+hd_status hd_head_level(const hd_head *h, const float *weight, float **level);
+/* How much photo pixel (x, y) lies in h's body (0 .. 1; 0 outside it or without the body). */
+float hd_head_body_zone(const hd_head *h, int x, int y);
+/* The backdrop's people (backdrop.c): people = max(people, weight, face f's person map) over the
+ * W x H photo (weight: the face's and head's weights, as hd_head_weight leaves them; the map's last
+ * row carried on down the photo, the body below its window; within head's body zone, the weights
+ * instead of the map). */
+hd_status hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, const hd_head *head, int W, int H,
+                                 float *people);
 /* Extends one job's field over the head, in place: the face's log-ratio field warped into the
  * photo and filled (photo-sized, 1 or 3 planes), on the skin handed over to the ratio on the
  * blended normals beyond the mesh, on the hair the ratio on the proxy's normals. target NULL:

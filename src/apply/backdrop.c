@@ -2,7 +2,8 @@
  * "The background"), for hd_model_set_background(HD_BACKGROUND_RELIGHT). By default a photo's
  * background keeps the input bit for bit. With the option, every pixel that is not the person
  * (one minus the larger of the people's weights and their segmentation, whose last row goes on
- * down the photo: the body below the segmented crop) takes the change of a
+ * down the photo: the body below the segmented crop; where the head relights the body, its
+ * weights alone) takes the change of a
  * flat wall facing the camera (normal (0, 0, 1)) from the first face's own light to the target,
  * by the same ratio rule and guard as the face, with the first face's brightness factor:
  *     out = in * exp(b * (log((s(n0, target) + g) / (s(n0, source) + g)) + t)),   b = 1 - people.
@@ -15,12 +16,24 @@
 #include "apply/apply.h"
 #include "align/person_segment.h"
 
-void hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, int W, int H, float *people)
+hd_status hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, const hd_head *head, int W, int H,
+                                 float *people)
 {
     const size_t P = (size_t)W * H;
-    for (size_t p = 0; p < P; p++)
-        if (weight[p] > people[p]) people[p] = weight[p] > 1.0f ? 1.0f : weight[p];
-    hd_person_map_max(f, W, H, 1, people);
+    float *map = hd_calloc(P ? P : 1, sizeof(float));
+    if (!map) return HD_ERR_NOMEM;
+    hd_person_map_max(f, W, H, 1, map);
+    /* in the head's body the weights are the person, the map's outline refined to the photo's
+     * edges (head.c): the raw map's soft edge would keep a rim of the wall unchanged */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const size_t p = (size_t)y * W + x;
+            const float w = weight[p] > 1.0f ? 1.0f : weight[p], m = map[p] * (1.0f - hd_head_body_zone(head, x, y));
+            const float v = w > m ? w : m;
+            if (v > people[p]) people[p] = v;
+        }
+    free(map);
+    return HD_OK;
 }
 
 void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb *target, float guard,

@@ -18,9 +18,17 @@
  *     With the segmentation the hair above the eyes reaches beyond the skull's proxy (a bun,
  *     curls), as far as the network's person goes (hair_reach).
  * The proxy's normals face the viewer at least PROXY_FACING: the face's own light, fitted on
- * normals that do, must not be extrapolated to the silhouette's. Inside the mesh the face's own field (rule.c, warped back) is kept; it hands over to the head's
- * within HEAD_MESH_BAND eye distances outside the mesh's edge. A face aligned without the
- * segmentation (from given landmarks) is told from its background by colour alone. */
+ * normals that do, must not be extrapolated to the silhouette's. Inside the mesh the face's own
+ * field (rule.c, warped back) is kept; it hands over to the head's within HEAD_MESH_BAND eye
+ * distances outside the mesh's edge. A face aligned without the segmentation (from given
+ * landmarks) is told from its background by colour alone.
+ * With the body (hd_head_init's body: the background is relit too, backdrop.c) the person below the
+ * chin, clothes and all, takes the change on a torso proxy: the network's person, its outline
+ * refined to the photo's edges by a guided filter (body_outline), is the body's weight, with no
+ * colour test (a white shirt before a pale wall). The head's own masks are computed on the head's
+ * window alone, so they, and the head's change, are the same with the body or without; the kept
+ * brightness is the head's (hd_head_level), not the clothes'. Without the background relit the
+ * body keeps the photo: against a kept wall a relit body would show an outline the photo lacks. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -43,6 +51,23 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
  * instead of running down the photo as a column (an orange suit, a bare chest under a collar). */
 #define NECK_BOTTOM -12.0f
 #define NECK_FADE 6.0f
+/* The body below the neck (with the face's segmentation only): a vertical elliptic cylinder, the
+ * chest and shoulders (TORSO_A: half the shoulders' width and the chest's depth), whose normals take
+ * over from the neck's from TORSO_TOP down over TORSO_BLEND cm. Every pixel of the person there,
+ * skin, clothes or hair alike, takes the change on them (hd_head_weight): the network, not the
+ * colour, tells the person from the background (a white shirt before a pale wall), and no material
+ * edge (a neckline) is a step of the change. */
+static const float TORSO_C[3] = {0.0f, 0.0f, -6.0f}, TORSO_A[3] = {18.0f, 0.0f, 10.0f};
+#define TORSO_TOP -11.0f
+#define TORSO_BLEND 5.0f
+#define TORSO_REACH 1.8f /* the body's weight fades out from the torso's radius 1 to this */
+/* The body's weight rises from BODY_FROM to BODY_TO eye distances below the eyes (the chin and the
+ * neck, whose skin takes the head's weight anyway): the shoulders below take it whole, with no band
+ * where it starts. */
+#define BODY_FROM 1.3f
+#define BODY_TO 1.7f
+#define BODY_GUIDE 0.04f      /* the guided filter's scale (eye distances) ... */
+#define BODY_GUIDE_EPS 1e-3f  /* ... and its regulariser (luminance squared) */
 /* How far the change reaches beyond the proxy's silhouette, as its normalised radius (1: on it). */
 #define SKIN_REACH_SKULL 1.25f /* the ears, a fuller face than the proxy */
 #define SKIN_REACH_NECK 1.5f
@@ -104,7 +129,8 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 void hd_head_free(hd_head *h)
 {
     if (!h) return;
-    free(h->normal), free(h->proxy), free(h->mesh), free(h->skin), free(h->hair), free(h->bg), free(h->ws), free(h->wh), free(h->near);
+    free(h->normal), free(h->proxy), free(h->mesh), free(h->skin), free(h->hair), free(h->bg);
+    free(h->body), free(h->zone), free(h->wb), free(h->ws), free(h->wh), free(h->near);
     memset(h, 0, sizeof *h);
 }
 
@@ -174,8 +200,11 @@ static void quadric_normal(const hd_aligned_face *f, const float P[3], const flo
     }
 }
 
-/* The proxy at photo pixel (x, y): its normal and the skull's and the neck's normalised radii. */
-static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *rho_skull, float *rho_neck)
+/* The proxy at photo pixel (x, y): its normal and the skull's and the neck's normalised radii;
+ * with torso, the torso's normal takes over from the head's below TORSO_TOP, and *torso is 1 within
+ * the torso's silhouette, fading to 0 at TORSO_REACH. */
+static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *rho_skull, float *rho_neck,
+                     float *torso)
 {
     static const float NECK_C[3] = {0.0f, 0.0f, NECK_Z}, NECK_A[3] = {NECK_R, 0.0f, NECK_R};
     const ray r = ray_of(f, x + 0.5f, y + 0.5f);
@@ -190,6 +219,18 @@ static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *
     const int skull = !neck && (*rho_skull <= 1.0f || *rho_skull <= *rho_neck);
     if (skull) quadric_normal(f, Ps, SKULL_C, SKULL_A, n);
     else quadric_normal(f, Pn, NECK_C, NECK_A, n);
+    if (!torso) return;
+    float tt, rt, Pt[3], nt[3];
+    cross(&r, TORSO_C, TORSO_A, &tt, &rt);
+    for (int k = 0; k < 3; k++) Pt[k] = r.p0[k] + tt * r.v[k];
+    const float below = hd_field_smoothstep((TORSO_TOP - Pt[1]) / TORSO_BLEND);
+    *torso = 1.0f - hd_field_smoothstep((rt - 1.0f) / (TORSO_REACH - 1.0f));
+    if (!(below > 0)) return;
+    quadric_normal(f, Pt, TORSO_C, TORSO_A, nt);
+    float len = 0;
+    for (int k = 0; k < 3; k++) n[k] += below * (nt[k] - n[k]), len += n[k] * n[k];
+    len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
+    for (int k = 0; k < 3; k++) n[k] *= len;
 }
 
 /* Window pixel (x, y) of head h as a photo pixel index. */
@@ -216,6 +257,20 @@ static float person_at(const hd_aligned_face *f, int x, int y)
     x -= f->person_x0, y -= f->person_y0;
     if (x < 0 || y < 0 || x >= f->person.width || y >= f->person.height) return 0.0f;
     return f->person.data[(size_t)y * f->person.width + x];
+}
+
+/* person_at for the body: the map's last row carried on down below its window, and its first and
+ * last columns out to the photo's sides (the body goes on beyond the segmented crop, a shoulder
+ * to the photo's edge; where the map's edge is the wall, the wall goes on). */
+static float person_below(const hd_aligned_face *f, int x, int y)
+{
+    const hd_image *m = &f->person;
+    if (m->width < 1 || m->height < 1) return 0.0f;
+    const int last = f->person_y0 + m->height - 1;
+    if (y < f->person_y0) return 0.0f;
+    y = y > last ? last : y;
+    x = x < f->person_x0 ? f->person_x0 : x >= f->person_x0 + m->width ? f->person_x0 + m->width - 1 : x;
+    return person_at(f, x, y);
 }
 
 /* The background's colour: medians and deviations of chroma and log luminance over the photo's
@@ -323,6 +378,27 @@ static void window_rgb(const hd_head *h, const hd_image *photo, float *rgb)
                    (size_t)h->w * sizeof(float));
 }
 
+/* The person's share of the light of photo pixel p (P pixels a plane) that mixes the person's
+ * colour cf and the background's cb (3 planes of N, at i): the pixel I = a F + (1 - a) B relit by r
+ * is I + a F (r - 1), so its weight is a F / I (luminances), a from the colours (I projected on the
+ * line from B to F: blond hair and a grey wall may share a luminance, not a colour); -1 where the
+ * two colours are too close to tell a mix (OUTLINE_CONTRAST) or the pixel is black. */
+static float mix_share(const hd_image *photo, size_t p, size_t P, const float *cf, const float *cb, size_t i, size_t N)
+{
+    float num = 0, den = 0, I[3], F[3];
+    for (int c = 0; c < 3; c++) {
+        I[c] = photo->data[(size_t)c * P + p], F[c] = cf[(size_t)c * N + i];
+        const float fb = F[c] - cb[(size_t)c * N + i];
+        num += (I[c] - cb[(size_t)c * N + i]) * fb, den += fb * fb;
+    }
+    const float li = hd_luma(I[0], I[1], I[2]), lf = hd_luma(F[0], F[1], F[2]);
+    if (!(den > OUTLINE_CONTRAST * OUTLINE_CONTRAST) || !(li > 1e-3f)) return -1.0f;
+    float a = num / den;
+    a = a < 0 ? 0 : a > 1 ? 1 : a;
+    const float w = a * lf / li;
+    return w > 1 ? 1 : w;
+}
+
 /* The person's share of the light reaching the camera at each pixel of its outline (share, 1
  * elsewhere; the background h->bg and person, 1 inside the person and less on its outline, both
  * final): an outline pixel I mixes the person's colour F (carried out from the person's inside)
@@ -358,28 +434,55 @@ static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             share[i] = 1.0f;
             if (h->bg[i] > 0.5f || person[i] >= 1.0f) continue;
-            /* a: the pixel's colour projected on the line from B to F */
-            float num = 0, den = 0, I[3], F[3];
-            for (int c = 0; c < 3; c++) {
-                I[c] = photo->data[(size_t)c * P + p], F[c] = cf[(size_t)c * N + i];
-                const float fb = F[c] - cb[(size_t)c * N + i];
-                num += (I[c] - cb[(size_t)c * N + i]) * fb, den += fb * fb;
-            }
-            const float li = hd_luma(I[0], I[1], I[2]), lf = hd_luma(F[0], F[1], F[2]);
-            if (!(den > OUTLINE_CONTRAST * OUTLINE_CONTRAST) || !(li > 1e-3f)) { /* no telling them apart */
+            const float w = mix_share(photo, p, P, cf, cb, i, N);
+            if (w < 0) { /* no telling them apart */
                 if (f->person.data) {
-                    const float w = hd_field_smoothstep((person_at(f, x + h->x0, y + h->y0) - PERSON_LEAST) /
+                    const float v = hd_field_smoothstep((person_at(f, x + h->x0, y + h->y0) - PERSON_LEAST) /
                                                         (PERSON_SURE - PERSON_LEAST));
-                    share[i] = w < OUTLINE_LEAST ? 0 : w;
+                    share[i] = v < OUTLINE_LEAST ? 0 : v;
                 }
                 continue;
             }
-            float a = num / den;
-            a = a < 0 ? 0 : a > 1 ? 1 : a;
-            const float w = a * lf / li;
-            share[i] = w < OUTLINE_LEAST ? 0 : w > 1 ? 1 : w;
+            share[i] = w < OUTLINE_LEAST ? 0 : w;
         }
     free(cb), free(cf), free(known);
+    return st;
+}
+
+/* The body's outline (h->body holds the torso's reach below the chin): the network's map (carried
+ * on down below its window) refined to the photo's own edges by a guided filter (He, Sun and Tang,
+ * ECCV 2010) on the luminance, then ramped as the head's outline (PERSON_LEAST to PERSON_SURE).
+ * The map's pixels are two or three of the photo's: alone, its soft edge reached into the wall (a
+ * dark rim above a shoulder) or, cut where it is sure, stopped short of a white shirt's edge against
+ * a pale wall, in steps; the colour test cannot tell that shirt from that wall at all. */
+static hd_status body_outline(hd_head *h, const hd_aligned_face *f, const hd_image *photo)
+{
+    const size_t N = (size_t)h->w * h->h, P = (size_t)h->W * h->H;
+    float *I = hd_malloc(N * sizeof(float)), *p = hd_malloc(N * sizeof(float));
+    float *mI = hd_malloc(N * sizeof(float)), *mp = hd_malloc(N * sizeof(float));
+    float *II = hd_malloc(N * sizeof(float)), *Ip = hd_malloc(N * sizeof(float));
+    hd_status st = I && p && mI && mp && II && Ip ? HD_OK : HD_ERR_NOMEM;
+    const float sigma = fmaxf(2.0f, BODY_GUIDE * h->frame.e);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x, q = photo_index(h, x, y);
+            I[i] = hd_luma(photo->data[q], photo->data[P + q], photo->data[2 * P + q]);
+            p[i] = person_below(f, x + h->x0, y + h->y0);
+            mI[i] = I[i], mp[i] = p[i], II[i] = I[i] * I[i], Ip[i] = I[i] * p[i];
+        }
+    float *planes[] = {mI, mp, II, Ip};
+    for (int k = 0; k < 4 && st == HD_OK; k++) st = hd_field_blur(planes[k], h->w, h->h, sigma);
+    /* q = a I + b with a, b the local linear fit of the map on the luminance, themselves smoothed */
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        const float var = II[i] - mI[i] * mI[i], cov = Ip[i] - mI[i] * mp[i];
+        const float a = cov / (var + BODY_GUIDE_EPS);
+        II[i] = a, Ip[i] = mp[i] - a * mI[i];
+    }
+    if (st == HD_OK) st = hd_field_blur(II, h->w, h->h, sigma);
+    if (st == HD_OK) st = hd_field_blur(Ip, h->w, h->h, sigma);
+    for (size_t i = 0; st == HD_OK && i < N; i++)
+        if (h->body[i] > 0) h->body[i] *= hd_field_smoothstep((II[i] * I[i] + Ip[i] - PERSON_LEAST) / (PERSON_SURE - PERSON_LEAST));
+    free(I), free(p), free(mI), free(mp), free(II), free(Ip);
     return st;
 }
 
@@ -524,6 +627,37 @@ static hd_status masks(hd_head *h, const hd_aligned_face *f, const hd_image *pho
     return st;
 }
 
+/* masks() over the head's own window (sx0, sy0, sw x sh, within h's): with the body, h's window
+ * reaches down the torso, and the masks' window-wide steps (the background's region grown from the
+ * window's edge, the colours filled from the person's inside, the blurs) would move the head's
+ * outline with it: the background relit or not, the head is the same. Outside it no skin and no
+ * hair (the body's weight is the person there), the background's flag set. */
+static hd_status head_masks(hd_head *h, const hd_aligned_face *f, const hd_image *photo, const float *coverage,
+                            const float *rho, int sx0, int sy0, int sw, int sh)
+{
+    if (sx0 == h->x0 && sy0 == h->y0 && sw == h->w && sh == h->h) return masks(h, f, photo, coverage, rho);
+    hd_head s = *h;
+    s.x0 = sx0, s.y0 = sy0, s.w = sw, s.h = sh;
+    const size_t M = (size_t)sw * sh, N = (size_t)h->w * h->h;
+    s.bg = hd_malloc(M * sizeof(float)), s.skin = hd_malloc(M * sizeof(float)), s.hair = hd_malloc(M * sizeof(float));
+    float *r = hd_malloc(2 * M * sizeof(float));
+    hd_status st = s.bg && s.skin && s.hair && r ? HD_OK : HD_ERR_NOMEM;
+    for (int y = 0; st == HD_OK && y < sh; y++)
+        for (int x = 0; x < sw; x++) {
+            const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
+            r[2 * j] = rho[2 * i], r[2 * j + 1] = rho[2 * i + 1];
+        }
+    if (st == HD_OK) st = masks(&s, f, photo, coverage, r);
+    for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = 1.0f, h->skin[i] = h->hair[i] = 0.0f;
+    for (int y = 0; st == HD_OK && y < sh; y++)
+        for (int x = 0; x < sw; x++) {
+            const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
+            h->bg[i] = s.bg[j], h->skin[i] = s.skin[j], h->hair[i] = s.hair[j];
+        }
+    free(s.bg), free(s.skin), free(s.hair), free(r);
+    return st;
+}
+
 /* The rule's guard g (rule.c): a share (guard; <= 0: HD_RATIO_GUARD) of the face's mean source
  * shading over its mask. */
 static hd_status guard_of(const hd_decomposition *d, const hd_image *mask, const float source[HD_SH_COEFFS],
@@ -550,7 +684,7 @@ static hd_status guard_of(const hd_decomposition *d, const hd_image *mask, const
 }
 
 hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
-                       const float source[HD_SH_COEFFS], float guard, hd_head *h)
+                       const float source[HD_SH_COEFFS], float guard, int body, hd_head *h)
 {
     memset(h, 0, sizeof *h);
     if (!f || !d || !d->normal.data || d->normal.channels != 3 || !photo || !photo->data || photo->channels != 3)
@@ -561,28 +695,43 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     const int W = photo->width, H = photo->height;
     const size_t P = (size_t)W * H;
     h->W = W, h->H = H;
-    /* the window: the proxy's reach, from a coarse scan of the photo */
-    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    /* the window: the proxy's reach, from a coarse scan of the photo; the head's own (box 0) and,
+     * with the body, the torso's reach below the chin too (box 1) */
+    int box[2][4] = {{W, H, -1, -1}, {W, H, -1, -1}}; /* x0, y0, x1, y1 */
     const int stride = (int)fmaxf(1.0f, 0.05f * h->frame.e);
     for (int y = 0; y < H; y += stride)
         for (int x = 0; x < W; x += stride) {
-            float n[3], rs, rn;
-            proxy_at(f, x, y, n, &rs, &rn);
-            if (rs > (f->person.data ? HAIR_REACH_PERSON : SKIN_REACH_SKULL) && rn > SKIN_REACH_NECK) continue;
-            x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1, y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
+            float n[3], rs, rn, torso = 0.0f;
+            proxy_at(f, x, y, n, &rs, &rn, body && f->person.data ? &torso : NULL);
+            const int head = rs <= (f->person.data ? HAIR_REACH_PERSON : SKIN_REACH_SKULL) || rn <= SKIN_REACH_NECK;
+            const int in[2] = {head, head || (torso > 0 && -hd_face_height(&h->frame, x, y) > BODY_FROM)};
+            for (int k = 0; k < 2; k++)
+                if (in[k]) {
+                    int *b = box[k];
+                    b[0] = x < b[0] ? x : b[0], b[1] = y < b[1] ? y : b[1], b[2] = x > b[2] ? x : b[2], b[3] = y > b[3] ? y : b[3];
+                }
         }
-    if (x1 < 0) return HD_OK;
-    x0 = x0 - stride < 0 ? 0 : x0 - stride, y0 = y0 - stride < 0 ? 0 : y0 - stride;
-    x1 = x1 + stride >= W ? W - 1 : x1 + stride, y1 = y1 + stride >= H ? H - 1 : y1 + stride;
-    h->x0 = x0, h->y0 = y0, h->w = x1 - x0 + 1, h->h = y1 - y0 + 1;
+    if (box[1][2] < 0) return HD_OK;
+    for (int k = 0; k < 2; k++) {
+        int *b = box[k];
+        if (b[2] < 0) b[0] = box[1][0], b[1] = box[1][1], b[2] = box[1][0], b[3] = box[1][1]; /* no head: one pixel */
+        b[0] = b[0] - stride < 0 ? 0 : b[0] - stride, b[1] = b[1] - stride < 0 ? 0 : b[1] - stride;
+        b[2] = b[2] + stride >= W ? W - 1 : b[2] + stride, b[3] = b[3] + stride >= H ? H - 1 : b[3] + stride;
+    }
+    const int x0 = box[1][0], y0 = box[1][1];
+    h->x0 = x0, h->y0 = y0, h->w = box[1][2] - x0 + 1, h->h = box[1][3] - y0 + 1;
     const size_t N = (size_t)h->w * h->h;
     h->normal = hd_malloc(3 * N * sizeof(float)), h->proxy = hd_malloc(3 * N * sizeof(float));
     h->mesh = hd_malloc(N * sizeof(float)), h->skin = hd_malloc(N * sizeof(float)), h->hair = hd_malloc(N * sizeof(float));
-    h->bg = hd_malloc(N * sizeof(float));
+    h->bg = hd_malloc(N * sizeof(float)), h->body = hd_calloc(N, sizeof(float)), h->zone = hd_calloc(N, sizeof(float));
+    h->wb = body && f->person.data ? hd_calloc(N, sizeof(float)) : NULL;
     float *rho = hd_malloc(2 * N * sizeof(float)), *cover = hd_malloc(P * sizeof(float));
     float *nblend = hd_malloc(P * sizeof(float));
     hd_image nw = {0}, cov = {0};
-    st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && rho && cover && nblend ? HD_OK : HD_ERR_NOMEM;
+    st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && h->body && h->zone &&
+                 (h->wb || !body || !f->person.data) && rho && cover && nblend
+             ? HD_OK
+             : HD_ERR_NOMEM;
     /* the model's normals in the photo, extended past the mesh's edge */
     if (st == HD_OK) st = hd_warp_back(f, &d->normal, NULL, &nw, &cov);
     if (st == HD_OK) {
@@ -597,8 +746,13 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
-            float n[3];
-            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1]);
+            float n[3], torso = 0.0f;
+            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1], body && f->person.data ? &torso : NULL);
+            /* the body: the person (the network's map, carried on down below its window) on the
+             * torso, its soft edge ramped as the outline's (PERSON_LEAST to PERSON_SURE) */
+            const float low = hd_field_smoothstep((-hd_face_height(&h->frame, x + x0, y + y0) - BODY_FROM) /
+                                                  (BODY_TO - BODY_FROM));
+            h->body[i] = h->zone[i] = torso * low;
             const float b = nblend[p];
             float m[3], len = 0;
             for (int k = 0; k < 3; k++) {
@@ -610,7 +764,9 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
             for (int k = 0; k < 3; k++) h->normal[(size_t)k * N + i] = m[k] * len;
             h->mesh[i] = mesh_full[p];
         }
-    if (st == HD_OK) st = masks(h, f, photo, cover, rho);
+    if (st == HD_OK)
+        st = head_masks(h, f, photo, cover, rho, box[0][0], box[0][1], box[0][2] - box[0][0] + 1, box[0][3] - box[0][1] + 1);
+    if (st == HD_OK && body && f->person.data) st = body_outline(h, f, photo);
     /* hair over the mesh above the brows (a fringe) is hair, not the face's skin */
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
@@ -677,12 +833,42 @@ hd_status hd_head_weight(hd_head *h, float *weight)
              * background, a grey photo, faded with the mesh's feather instead of ending in a step
              * where that weight is whole) */
             if (h->bg[i] > 0.5f && !(weight[p] >= 1.0f)) h->ws[i] = weight[p] * h->mesh[i], h->wh[i] = 0.0f;
+            /* the body takes what the head leaves of it, on the skin's field (the torso's normals):
+             * skin, clothes and hair alike, whatever the colour test said */
+            const float b = fmaxf(0.0f, fminf(h->body[i], 1.0f - h->ws[i] - h->wh[i]));
+            h->ws[i] += b;
+            if (h->wb) h->wb[i] = b;
             /* beyond the face, a change too small to see is none (the masks' blur reaches past
              * the person by a few pixels at 1e-4) */
-            if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) h->ws[i] = h->wh[i] = 0.0f;
+            if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) {
+                h->ws[i] = h->wh[i] = 0.0f;
+                if (h->wb) h->wb[i] = 0.0f;
+            }
             weight[p] = h->ws[i] + h->wh[i];
         }
     return HD_OK;
+}
+
+hd_status hd_head_level(const hd_head *h, const float *weight, float **level)
+{
+    *level = NULL;
+    if (!h || !h->wb) return HD_OK;
+    const size_t P = (size_t)h->W * h->H;
+    if (!(*level = hd_malloc((P ? P : 1) * sizeof(float)))) return HD_ERR_NOMEM;
+    memcpy(*level, weight, P * sizeof(float));
+    for (int y = 0; y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t p = photo_index(h, x, y);
+            (*level)[p] = fmaxf(0.0f, (*level)[p] - h->wb[(size_t)y * h->w + x]);
+        }
+    return HD_OK;
+}
+
+float hd_head_body_zone(const hd_head *h, int x, int y)
+{
+    if (!h || !h->zone) return 0.0f;
+    x -= h->x0, y -= h->y0;
+    return x < 0 || y < 0 || x >= h->w || y >= h->h ? 0.0f : h->zone[(size_t)y * h->w + x];
 }
 
 float hd_head_blur(const hd_head *h) { return h && h->normal ? HEAD_FIELD_BLUR * h->frame.e : 0.0f; }

@@ -157,8 +157,9 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
     return st;
 }
 
-/* The w-weighted mean luminance of the relit pixels (idx) for brightness offset t, unclamped. */
-static double relit_lum(const hd_image *lr, const float *w, const hd_image *im, const size_t *idx, size_t n, double t)
+/* The lw-weighted mean luminance of the relit pixels (idx; weights w) for brightness offset t, unclamped. */
+static double relit_lum(const hd_image *lr, const float *w, const float *lw, const hd_image *im, const size_t *idx,
+                        size_t n, double t)
 {
     const size_t P = (size_t)im->width * (size_t)im->height;
     double acc = 0;
@@ -166,14 +167,14 @@ static double relit_lum(const hd_image *lr, const float *w, const hd_image *im, 
         size_t p = idx[i];
         for (int c = 0; c < 3; c++) {
             const float *l = lr->data + (size_t)(lr->channels == 3 ? c : 0) * P;
-            acc += w[p] * LUMA[c] * im->data[c * P + p] * exp(w[p] * (l[p] + t));
+            acc += lw[p] * LUMA[c] * im->data[c * P + p] * exp(w[p] * (l[p] + t));
         }
     }
     return acc;
 }
 
-hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brightness brightness, hd_image *image,
-                         double *offset)
+hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, const float *level, hd_brightness brightness,
+                         hd_image *image, double *offset)
 {
     if (offset) *offset = 0.0;
     if (!image || !image->data || image->channels != 3 || !log_ratio || !log_ratio->data ||
@@ -190,6 +191,7 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
         for (size_t p = 0; p < P; p++) ones[p] = 1.0f;
         weight = ones;
     }
+    if (!level) level = weight;
     size_t *idx = hd_malloc((P ? P : 1) * sizeof *idx), n = 0;
     if (!idx) {
         free(ones);
@@ -206,11 +208,11 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, hd_brig
         /* the mean luminance grows with t: bisection for the input's */
         double goal = 0;
         for (size_t i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) goal += weight[idx[i]] * LUMA[c] * image->data[c * P + idx[i]];
+            for (int c = 0; c < 3; c++) goal += level[idx[i]] * LUMA[c] * image->data[c * P + idx[i]];
         double lo = -4.0, hi = 4.0;
         for (int it = 0; it < 50 && goal > 0; it++) {
             double mid = 0.5 * (lo + hi);
-            if (relit_lum(log_ratio, weight, image, idx, n, mid) < goal) lo = mid;
+            if (relit_lum(log_ratio, weight, level, image, idx, n, mid) < goal) lo = mid;
             else hi = mid;
         }
         t = goal > 0 ? 0.5 * (lo + hi) : 0.0;

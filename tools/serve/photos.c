@@ -127,7 +127,7 @@ static hd_status add_face_weight(const hd_aligned_face *f, const hd_decompositio
     hd_head h;
     memset(&h, 0, sizeof h);
     hd_status st = hd_photo_face_weight(f, photo, scratch);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, sf->light, 0.0f, &h);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, sf->light, 0.0f, 0, &h);
     if (st == HD_OK) st = hd_head_weight(&h, scratch);
     for (size_t p = 0; st == HD_OK && p < (size_t)weight->width * weight->height; p++)
         if (scratch[p] > weight->data[p]) weight->data[p] = scratch[p];
