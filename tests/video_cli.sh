@@ -2,7 +2,8 @@
 # video_cli.sh: relight, delight and transfer on clips from the command line: a folder of frames
 # (--fps; needs no FFmpeg) gives a folder of as many relit frames; with FFmpeg in the build, a
 # folder to a video file, video to video (delight), transfer with a reference photo; a build without
-# FFmpeg says how to get it and the test skips (exit 77): the video files were not tested. Bad --fps values and a clip with --preset all are usage errors; a
+# FFmpeg says how to get it and the test skips (exit 77): the video files were not tested. The
+# background relit changes every frame. Bad --fps and --background values and a clip with --preset all are usage errors; a
 # broken video file is reported and leaves no output.
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -19,6 +20,12 @@ grep -q "(smoothed)" out.log || fail "the clip was not smoothed: $(cat out.log)"
 expect_saying 0 "3 frames" "$HDNET" delight frames --fps 10 --no-smooth -o delit
 grep -q "(smoothed)" out.log && fail "--no-smooth still smoothed"
 
+# the background relit as a wall (the frame's pixels: tests/test_video.c): every frame differs
+expect_saying 0 "3 frames (3 with a face)" "$HDNET" relight frames --fps 10 --preset 3 --background relight -o wall
+for i in 0 1 2; do
+    cmp -s "relit/frame00000$i.png" "wall/frame00000$i.png" && fail "frame $i: --background relight changed nothing"
+done
+expect_saying 2 "keep or relight" "$HDNET" delight frames --fps 10 --background wall -o bad
 expect_saying 2 "fps" "$HDNET" relight frames --fps -1 --preset 3 -o bad
 expect_saying 2 "fps" "$HDNET" relight frames --fps 5000 --preset 3 -o bad
 expect_saying 2 "one light" "$HDNET" relight frames --fps 10 --preset all -o bad

@@ -55,14 +55,14 @@ int cli_white_balance_set(const cli_cmd_spec *spec, const char *value, hd_model 
     return model && hd_model_set_white_balance(model, mode) != HD_OK ? cli_report(spec->name) : 0;
 }
 
-int cli_background_set(const cli_cmd_spec *spec, const char *value, int clip, hd_model *model)
+int cli_background_set(const cli_cmd_spec *spec, const char *value, cli_clip *clip, hd_model *model)
 {
     if (!value) return 0;
     hd_background mode;
     if (strcmp(value, "keep") == 0) mode = HD_BACKGROUND_KEEP;
     else if (strcmp(value, "relight") == 0) mode = HD_BACKGROUND_RELIGHT;
     else return cli_usage_error(spec, "--background wants keep or relight, got '%s'", value);
-    if (clip && mode != HD_BACKGROUND_KEEP) return cli_usage_error(spec, "a clip keeps its background (no --background relight)");
+    if (clip) clip->background = mode;
     return model && hd_model_set_background(model, mode) != HD_OK ? cli_report(spec->name) : 0;
 }
 

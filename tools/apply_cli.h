@@ -7,6 +7,7 @@
 #include "batch.h"
 #include "cli.h"
 #include "hdnet_tool.h"
+#include "video_cli.h"
 
 /* What every input of a run shares. */
 typedef struct cli_apply_run {
@@ -45,11 +46,12 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
         CLI_OPT_THREADS_ROW(threads), CLI_OPT_QUIET_ROW(quiet), {NULL, 0, 0, NULL, NULL, NULL}
 #define CLI_OPT_BACKGROUND_ROW(var)                                                                                     \
     {"background", 0, CLI_OPT_STRING, &(var), "keep|relight",                                                           \
-     "a photo's background: keep it bit for bit (default), or relight it as a flat wall under the same light "        \
-     "(docs/usage.md, \"The background\")"}
-/* Sets model's background mode from a --background value (NULL: leave the default); a clip (clip
- * nonzero) keeps its background. Returns 0, or the usage error's exit code. */
-int cli_background_set(const cli_cmd_spec *spec, const char *value, int clip, hd_model *model);
+     "the background of a photo or clip: keep it bit for bit (default), or relight it as a flat wall under the "      \
+     "same light, and the body with the head (docs/usage.md, \"The background\")"}
+/* Reads a --background value (NULL: leave the default) into model's background mode, or for a
+ * clip (clip not NULL) into clip->background, which cli_video sets on its model. Returns 0, or the
+ * usage error's exit code. */
+int cli_background_set(const cli_cmd_spec *spec, const char *value, cli_clip *clip, hd_model *model);
 /* Reads a --source-light value; a usage error (nonzero) when it is neither. */
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source);
 

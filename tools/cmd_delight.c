@@ -57,7 +57,7 @@ int cmd_delight(int argc, char **argv)
     int rc = CLI_EXIT_FAIL;
     if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
         (source && (code = cli_source_light_parse(&spec, source, &run.request.source))) ||
-        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip), NULL))) {
+        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
         free(pos);
         return code;
     }
@@ -77,7 +77,7 @@ int cmd_delight(int argc, char **argv)
     }
     if (cli_inputs_collect(&in, pos, npos) != HD_OK || hd_model_load(model_path, &run.model) != HD_OK)
         rc = cli_report("delight");
-    else if ((code = cli_background_set(&spec, background, 0, run.model)))
+    else if ((code = cli_background_set(&spec, background, NULL, run.model)))
         rc = code;
     else
         rc = cli_batch_run("delight", "delit", CLI_NO_FACE_ALIGNED, &in, out, single, quiet, delight_one, &run, NULL);

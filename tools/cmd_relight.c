@@ -114,7 +114,7 @@ static int relight_check(const cli_cmd_spec *spec, const relight_args *a, religh
             if (!(fabsf(lights[0].sh[c][k]) <= HD_LIGHT_MAX_COEFF)) return cli_usage_error(spec, "the light's coefficient %d (%g) is beyond %g: its shading could overflow", k,
                                 (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
     if (a->source && cli_source_light_parse(spec, a->source, &run->apply.request.source)) return CLI_EXIT_USAGE;
-    return cli_background_set(spec, a->background, 0, NULL);
+    return cli_background_set(spec, a->background, NULL, NULL);
 }
 
 int cmd_relight(int argc, char **argv)
@@ -176,7 +176,7 @@ int cmd_relight(int argc, char **argv)
 
     if ((code = relight_check(&spec, &a, &run, lights))) goto done;
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        if ((code = cli_background_set(&spec, a.background, 1, NULL))) goto done;
+        if ((code = cli_background_set(&spec, a.background, &clip, NULL))) goto done;
         if (run.apply.request.source != HD_SOURCE_FIT)
             cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
         else if (run.all || a.sheet_path || !hd_light_rgb_is_grey(&lights[0]))
@@ -209,7 +209,7 @@ int cmd_relight(int argc, char **argv)
         rc = cli_report("relight");
         goto done;
     }
-    if ((code = cli_background_set(&spec, a.background, 0, run.apply.model))) goto done;
+    if ((code = cli_background_set(&spec, a.background, NULL, run.apply.model))) goto done;
     rc = cli_batch_run("relight", "relit", CLI_NO_FACE_ALIGNED, &in, a.out, single, a.quiet, relight_one, &run, NULL);
 done:
     if (code) rc = code;

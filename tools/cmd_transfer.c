@@ -65,7 +65,7 @@ int cmd_transfer(int argc, char **argv)
     }
     hd_source_light src = HD_SOURCE_FIT;
     if ((source && (code = cli_source_light_parse(&spec, source, &src))) ||
-        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip), NULL))) {
+        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
         free(pos);
         return code;
     }
@@ -103,7 +103,7 @@ int cmd_transfer(int argc, char **argv)
         rc = cli_report("transfer");
         goto done;
     }
-    if ((code = cli_background_set(&spec, background, 0, run.model))) {
+    if ((code = cli_background_set(&spec, background, NULL, run.model))) {
         rc = code;
         goto done;
     }

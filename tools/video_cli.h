@@ -8,6 +8,7 @@
 typedef struct cli_clip {
     float fps;     /* --fps: a folder input is a clip at this frame rate (0: not given) */
     int no_smooth; /* --no-smooth */
+    hd_background background; /* --background (cli_background_set) */
 } cli_clip;
 
 #define CLI_OPT_CLIP_ROWS(c)                                                                                            \

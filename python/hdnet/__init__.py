@@ -275,8 +275,9 @@ class Model:
     keep_brightness (relight, transfer): match the input's mean brightness (the default).
     white_balance=True: divide the colour cast read from the whites of the eyes out of each face
     before decomposing it (hd_model_set_white_balance; off by default).
-    background="relight": a photo's background is relit too, as a flat wall under the same light
-    (hd_model_set_background; "keep", the default, leaves it bit for bit)."""
+    background="relight": a photo's background is relit too, as a flat wall under the same light,
+    and the body below the chin with the head (hd_model_set_background; "keep", the default, leaves
+    both bit for bit)."""
 
     _BACKGROUNDS = {"keep": 0, "relight": 1}
 

@@ -8,6 +8,7 @@
  * options and files around these calls; the thin public calls of hdnet.h (calls.c) are requests to
  * them. Of src/apply's other files it uses the rule's pieces and photo.c's faces, never calls.c. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "core/core.h"
@@ -253,8 +254,19 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
     return st;
 }
 
+/* A face whose person the segmentation did not find cannot have its background relit. */
+static hd_status need_person(const hd_aligned_face *f, const char *which)
+{
+    if (f->person.data) return HD_OK;
+    return hd_fail(HD_ERR_ARG,
+                   "the background is relit only where the person segmentation finds the person, "
+                   "and it did not about %s",
+                   which);
+}
+
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_source_light source, hd_image *photo)
+                        hd_brightness brightness, hd_source_light source, hd_image *photo,
+                        hd_face_backdrop *backdrop)
 {
     const char *op = target ? "relight" : "delight";
     if (!f || !d || !photo || !photo->data || photo->channels != 3)
@@ -268,9 +280,18 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
     if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, 0, &head);
+    if (st == HD_OK && backdrop) {
+        char which[64];
+        snprintf(which, sizeof which, "the face at %.0f, %.0f", (double)f->box[0], (double)f->box[1]);
+        st = need_person(f, which);
+    }
+    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, backdrop != NULL, &head);
     if (st == HD_OK) st = hd_head_weight(&head, feather);
-    if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, NULL);
+    if (st == HD_OK && backdrop) {
+        memcpy(backdrop->source, fr.source, sizeof fr.source);
+        st = hd_backdrop_add_person(f, feather, &head, photo->width, photo->height, backdrop->people);
+    }
+    if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, backdrop ? &backdrop->offset : NULL);
     hd_head_free(&head);
     free(feather);
     return named(op, st);
@@ -316,11 +337,11 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
         if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, backdrop, &head);
         if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
-        if (st == HD_OK && backdrop && !f->person.data)
-            st = hd_fail(HD_ERR_ARG,
-                         "the background is relit only where the person segmentation finds the person, "
-                         "and it did not about face %d",
-                         k);
+        if (st == HD_OK && backdrop) {
+            char which[32];
+            snprintf(which, sizeof which, "face %d", k);
+            st = need_person(f, which);
+        }
         if (st == HD_OK && backdrop) st = hd_backdrop_add_person(f, feather, &head, photo->width, photo->height, people);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)

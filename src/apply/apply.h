@@ -105,13 +105,23 @@ void hd_backdrop_log_ratio(const float source[HD_SH_COEFFS], const hd_light_rgb 
 /* image *= exp((1 - people) * (log_ratio + offset)), each channel clamped to 1. */
 void hd_backdrop_apply(const float log_ratio[3], double offset, const float *people, hd_image *image);
 
+/* A frame's background relit as a wall (hd_apply_face, then hd_backdrop_apply over people with
+ * the first face's wall change and offset). */
+typedef struct hd_face_backdrop {
+    float *people;              /* photo-sized, zeroed by the caller: each face adds its person */
+    float source[HD_SH_COEFFS]; /* set by each call: the face's own light ... */
+    double offset;              /* ... and its brightness offset (log k) */
+} hd_face_backdrop;
 /* The rule on one face of a photo already aligned (f) and decomposed (d, which may be smoothed, as
  * a video does): photo (3 channels, the frame's size; earlier faces may be changed already) is
  * changed in place toward target (NULL: flat light, delighting), from the face's own light
  * (hd_face_light of d by `source`), feathered from the face's edge, as hd_apply_photo does for
- * each face. */
+ * each face. backdrop (NULL: the background kept) relights the body as well and adds the face's
+ * person to backdrop->people (the face needs its person map, else HD_ERR_ARG), as hd_apply_photo
+ * does with HD_BACKGROUND_RELIGHT. */
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_source_light source, hd_image *photo);
+                        hd_brightness brightness, hd_source_light source, hd_image *photo,
+                        hd_face_backdrop *backdrop);
 
 /* The change of light beyond the face mesh (head.c, docs/usage.md "The whole head"): per face, a
  * head proxy posed by the mesh fit (an ellipsoid skull, a cylinder neck), its normals blended with

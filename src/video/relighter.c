@@ -4,7 +4,9 @@
  * face is then unwarped again from them) and, after the face is decomposed, smooths the light and
  * the shading and normal maps (a first-order low-pass: the maps are in the aligned texture space, where every
  * texel stays on the same point of the face). The frame is then changed by the photo's relighting
- * rule on that decomposition (hd_apply_face, src/apply/apply.c), as hdnet relight changes a photo. */
+ * rule on that decomposition (hd_apply_face, src/apply/apply.c), as hdnet relight changes a photo,
+ * its background too when the model says so (HD_BACKGROUND_RELIGHT: a wall under the first face's
+ * light change, the body relit with the head). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -188,6 +190,11 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
     hd_light_rgb target;
     hd_light_rgb_from_grey(v->light, &target);
     int done = 0;
+    /* the background relit as a wall (the model's setting), from the first face's light */
+    hd_face_backdrop backdrop = {0}, first = {0};
+    const int wall = hd_model_background(v->model) == HD_BACKGROUND_RELIGHT;
+    if (st == HD_OK && wall && !(backdrop.people = hd_calloc((size_t)frame->width * frame->height, sizeof(float))))
+        st = HD_ERR_NOMEM;
     for (int k = 0; k < n && st == HD_OK; k++) {
         hd_aligned_face *f = &faces[k];
         track *t = v->opt.smooth ? track_for(v, f, &st) : NULL;
@@ -204,10 +211,16 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
         }
         if (st == HD_OK) /* the photo's rule on the (smoothed) decomposition */
             st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness,
-                               HD_SOURCE_FIT, out);
+                               HD_SOURCE_FIT, out, wall ? &backdrop : NULL);
         hd_decomposition_free(&d);
-        if (st == HD_OK) done++;
+        if (st == HD_OK && done++ == 0) first = backdrop;
     }
+    if (st == HD_OK && wall && done > 0) {
+        float lr[3];
+        hd_backdrop_log_ratio(first.source, v->delight ? NULL : &target, 0.0f, lr);
+        hd_backdrop_apply(lr, first.offset, backdrop.people, out);
+    }
+    free(backdrop.people);
     /* Tracks not seen in this frame end: a face that comes back starts afresh. */
     for (int i = 0; i < MAX_TRACKS; i++)
         if (v->tracks[i].used && !v->tracks[i].seen) track_free(&v->tracks[i]);
