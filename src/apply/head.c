@@ -60,7 +60,11 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 static const float TORSO_C[3] = {0.0f, 0.0f, -6.0f}, TORSO_A[3] = {18.0f, 0.0f, 10.0f};
 #define TORSO_TOP -11.0f
 #define TORSO_BLEND 5.0f
-#define TORSO_REACH 1.8f /* the body's weight fades out from the torso's radius 1 to this */
+/* The body's weight fades out from the torso's radius 1 to TORSO_REACH: far enough that the
+ * network's person, not the proxy, ends the body (at 1.8 a pale stripe of the old light ran down
+ * a wide shirt or an arm where the weight faded inside the person: London 068 and 022, the
+ * astronaut's far arm). */
+#define TORSO_REACH 4.0f
 /* The body's weight rises from BODY_FROM to BODY_TO eye distances below the eyes (the chin and the
  * neck, whose skin takes the head's weight anyway): the shoulders below take it whole, with no band
  * where it starts. */
