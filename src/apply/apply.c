@@ -254,14 +254,27 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
     return st;
 }
 
-/* A face whose person the segmentation did not find cannot have its background relit. */
-static hd_status need_person(const hd_aligned_face *f, const char *which)
+/* Face f's weights over photo (feather, photo-sized) and its head (head, for hd_head_free), as the
+ * ratio rule applies them; with people (the background relit) the body too, and the face's person
+ * added to people, which needs the person segmentation's map (k: the face's number for the reason,
+ * or -1 to name it by its box). */
+static hd_status face_weights(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                              const face_rule *fr, float *people, int k, float *feather, hd_head *head)
 {
-    if (f->person.data) return HD_OK;
-    return hd_fail(HD_ERR_ARG,
-                   "the background is relit only where the person segmentation finds the person, "
-                   "and it did not about %s",
-                   which);
+    if (people && !f->person.data) {
+        char which[64];
+        if (k >= 0) snprintf(which, sizeof which, "face %d", k);
+        else snprintf(which, sizeof which, "the face at %.0f, %.0f", (double)f->box[0], (double)f->box[1]);
+        return hd_fail(HD_ERR_ARG,
+                       "the background is relit only where the person segmentation finds the person, "
+                       "and it did not about %s",
+                       which);
+    }
+    hd_status st = hd_photo_face_weight(f, photo, feather);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, fr->source, fr->guard, people != NULL, head);
+    if (st == HD_OK) st = hd_head_weight(head, feather);
+    if (st == HD_OK && people) st = hd_backdrop_add_person(f, feather, head, photo->width, photo->height, people);
+    return st;
 }
 
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
@@ -279,18 +292,8 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     hd_head head;
     memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
-    if (st == HD_OK) st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK && backdrop) {
-        char which[64];
-        snprintf(which, sizeof which, "the face at %.0f, %.0f", (double)f->box[0], (double)f->box[1]);
-        st = need_person(f, which);
-    }
-    if (st == HD_OK) st = hd_head_init(f, d, photo, fr.source, fr.guard, backdrop != NULL, &head);
-    if (st == HD_OK) st = hd_head_weight(&head, feather);
-    if (st == HD_OK && backdrop) {
-        memcpy(backdrop->source, fr.source, sizeof fr.source);
-        st = hd_backdrop_add_person(f, feather, &head, photo->width, photo->height, backdrop->people);
-    }
+    if (st == HD_OK) st = face_weights(f, d, photo, &fr, backdrop ? backdrop->people : NULL, -1, feather, &head);
+    if (st == HD_OK && backdrop) memcpy(backdrop->source, fr.source, sizeof fr.source);
     if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, backdrop ? &backdrop->offset : NULL);
     hd_head_free(&head);
     free(feather);
@@ -334,15 +337,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
         hd_head head;
         memset(&head, 0, sizeof head);
-        if (st == HD_OK && feather) st = hd_photo_face_weight(f, photo, feather);
-        if (st == HD_OK && feather) st = hd_head_init(f, &d, photo, fr.source, fr.guard, backdrop, &head);
-        if (st == HD_OK && feather) st = hd_head_weight(&head, feather);
-        if (st == HD_OK && backdrop) {
-            char which[32];
-            snprintf(which, sizeof which, "face %d", k);
-            st = need_person(f, which);
-        }
-        if (st == HD_OK && backdrop) st = hd_backdrop_add_person(f, feather, &head, photo->width, photo->height, people);
+        if (st == HD_OK && feather) st = face_weights(f, &d, photo, &fr, people, k, feather, &head);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)
             st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i], backdrop && k == 0 ? &offsets[i] : NULL);
