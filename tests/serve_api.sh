@@ -2,7 +2,8 @@
 # serve_api.sh: `hdnet serve` through a real HTTP client (curl), on loopback: upload a PNG and a
 # JPEG photo, fetch the maps, relight (preset, direction, 9 coefficients), delight, transfer and
 # download light files, each compared byte for byte with what the hdnet command line writes for the
-# same photo and light; bad inputs (truncated JPEG, a 60000 x 60000 PNG header, an empty body, a
+# same photo and light, with the background kept and relit (`--background relight`, and a request
+# after one that relit it keeps it again); bad inputs (truncated JPEG, a 60000 x 60000 PNG header, an empty body, a
 # wrong content type, a body that is no picture, an upload over the cap, `..` in a path, unknown
 # ids, bad JSON, wrong methods) each get their 4xx and the server keeps serving; the least
 # recently used photo is evicted and the answer says so; four clients at once get the CLI's
@@ -77,9 +78,13 @@ call 201 up2.json -H 'Content-Type: image/jpeg' --data-binary @"$jpeg" "$base/ap
 id2=$(id_of up2.json)
 grep -q '"width":675,"height":675' up2.json || fail "JPEG upload: wrong size in $(head -c 200 up2.json)"
 
-# ---- maps: ten PNGs of the photo's size, named in the upload's JSON
+# ---- maps: seventeen PNGs of the photo's size, named in the upload's JSON (ten of the background
+# kept, seven of it relit)
 grep -q '"head":{"window":\[' up1.json || fail "upload: no head window in $(head -c 200 up1.json)"
-for m in photo normal shading mask weight skin head_normal head_proxy head_weights head_mesh; do
+grep -q '"body_window":\[' up1.json || fail "upload: no head window with the body in $(head -c 200 up1.json)"
+grep -q '"backgrounds":\["keep","relight"\]' up1.json || fail "upload: the background cannot be relit: $(grep -o '"background_reason":"[^"]*"' up1.json)"
+for m in photo normal shading mask weight skin head_normal head_proxy head_weights head_mesh \
+    body_weight body_level body_head_normal body_head_proxy body_head_weights body_head_mesh people; do
     grep -q "\"$m\":\"/api/photos/$id1/maps/$m.png\"" up1.json || fail "the upload's maps do not name $m.png"
     call 200 "$m.png" "$base/api/photos/$id1/maps/$m.png"
     [ "$(png_size "$m.png")" = "512 512" ] || fail "map $m is $(png_size "$m.png"), not 512 512"
@@ -89,6 +94,9 @@ done
 helper=${BUILD:-$root/build}/tests/serve_weight
 [ -x "$helper" ] || fail "$helper is not built (make tests)"
 HDNET_DATA=${HDNET_DATA:-$root/models} "$helper" "$photo" weight.png >weight.txt 2>&1 || fail "the weight map: $(cat weight.txt)"
+# and with the background relit (hd_face_weights with the people): the body's weight and the people
+HDNET_DATA=${HDNET_DATA:-$root/models} "$helper" "$photo" body_weight.png people.png >weight.txt 2>&1 ||
+    fail "the body's weight map: $(cat weight.txt)"
 
 # ---- relight: the same bytes as `hdnet relight`
 expect 0 "$HDNET" relight "$photo" --preset 1 -o cli_preset1.png
@@ -108,6 +116,23 @@ cmp -s srv_coeffs.png srv_preset1.png && fail "two lights gave the same picture"
 expect 0 "$HDNET" relight "$jpeg" --preset 3 -o cli_jpeg.png
 call 200 srv_jpeg.png -H 'Content-Type: application/json' -d '{"preset":3}' "$base/api/photos/$id2/relight"
 same srv_jpeg.png cli_jpeg.png "relight of the JPEG"
+
+# ---- the background relit (`--background relight`): relight, delight, transfer; then kept again
+expect 0 "$HDNET" relight "$photo" --preset 1 --background relight -o cli_bg.png
+call 200 srv_bg.png -H 'Content-Type: application/json' -d '{"preset":1,"background":"relight"}' "$base/api/photos/$id1/relight"
+same srv_bg.png cli_bg.png "relight preset 1, the background relit"
+cmp -s srv_bg.png srv_preset1.png && fail "the background relit gave the picture of the background kept"
+call 200 srv_kept.png -H 'Content-Type: application/json' -d '{"preset":1,"background":"keep"}' "$base/api/photos/$id1/relight"
+same srv_kept.png cli_preset1.png "relight preset 1 after one with the background relit"
+expect 0 "$HDNET" delight "$photo" --background relight -o cli_bg_delit.png
+call 200 srv_bg_delit.png -X POST "$base/api/photos/$id1/delight?background=relight"
+same srv_bg_delit.png cli_bg_delit.png "delight, the background relit"
+expect 0 "$HDNET" transfer "$photo" --ref "$jpeg" --background relight -o cli_bg_transfer.png
+call 200 srv_bg_transfer.png -X POST "$base/api/photos/$id1/transfer?ref=$id2&background=relight"
+same srv_bg_transfer.png cli_bg_transfer.png "transfer, the background relit"
+call 200 srv_dir2.png -H 'Content-Type: application/json' \
+    -d '{"azimuth":-40,"elevation":20,"intensity":1.2,"ambient":0.4}' "$base/api/photos/$id1/relight"
+same srv_dir2.png cli_dir.png "relight by direction after a transfer with the background relit"
 
 # ---- delight, transfer, light files
 expect 0 "$HDNET" delight "$photo" -o cli_delit.png
@@ -170,6 +195,11 @@ refused 400 "JSON" -H 'Content-Type: application/json' -d '{"preset":' "$base/ap
 refused 400 "preset" -H 'Content-Type: application/json' -d '{"preset":9}' "$base/api/photos/$id1/relight"
 refused 400 "finite" -H 'Content-Type: application/json' -d '{"azimuth":"left","elevation":0}' "$base/api/photos/$id1/relight"
 refused 400 "exactly one" -H 'Content-Type: application/json' -d '{}' "$base/api/photos/$id1/relight"
+refused 400 "background" -H 'Content-Type: application/json' -d '{"preset":1,"background":"wall"}' "$base/api/photos/$id1/relight"
+refused 400 "background" -H 'Content-Type: application/json' -d '{"preset":1,"background":true}' "$base/api/photos/$id1/relight"
+refused 400 "JSON body" -H 'Content-Type: application/json' -d '{"preset":1}' "$base/api/photos/$id1/relight?background=relight"
+refused 400 "background" -X POST "$base/api/photos/$id1/delight?background=yes"
+refused 400 "background" -X POST "$base/api/photos/$id1/transfer?ref=$id2&background="
 refused 415 "json" -H 'Content-Type: text/plain' -d '{"preset":1}' "$base/api/photos/$id1/relight"
 refused 405 "POST" "$base/api/photos/$id1/relight"
 refused 405 "POST" "$base/api/photos"

@@ -254,12 +254,9 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
     return st;
 }
 
-/* Face f's weights over photo (feather, photo-sized) and its head (head, for hd_head_free), as the
- * ratio rule applies them; with people (the background relit) the body too, and the face's person
- * added to people, which needs the person segmentation's map (k: the face's number for the reason,
- * or -1 to name it by its box). */
-static hd_status face_weights(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
-                              const face_rule *fr, float *people, int k, float *feather, hd_head *head)
+hd_status hd_face_weights(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                          const float source[HD_SH_COEFFS], float guard, float *people, int k, float *feather,
+                          hd_head *head)
 {
     if (people && !f->person.data) {
         char which[64];
@@ -271,7 +268,7 @@ static hd_status face_weights(const hd_aligned_face *f, const hd_decomposition *
                        which);
     }
     hd_status st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, fr->source, fr->guard, people != NULL, head);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, source, guard, people != NULL, head);
     if (st == HD_OK) st = hd_head_weight(head, feather);
     if (st == HD_OK && people) st = hd_backdrop_add_person(f, feather, head, photo->width, photo->height, people);
     return st;
@@ -292,7 +289,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     hd_head head;
     memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
-    if (st == HD_OK) st = face_weights(f, d, photo, &fr, backdrop ? backdrop->people : NULL, -1, feather, &head);
+    if (st == HD_OK) st = hd_face_weights(f, d, photo, fr.source, fr.guard, backdrop ? backdrop->people : NULL, -1, feather, &head);
     if (st == HD_OK && backdrop) memcpy(backdrop->source, fr.source, sizeof fr.source);
     if (st == HD_OK) st = photo_job(f, d, feather, &head, HD_RULE_RATIO, &fr, &jb, backdrop ? &backdrop->offset : NULL);
     hd_head_free(&head);
@@ -337,7 +334,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
         hd_head head;
         memset(&head, 0, sizeof head);
-        if (st == HD_OK && feather) st = face_weights(f, &d, photo, &fr, people, k, feather, &head);
+        if (st == HD_OK && feather) st = hd_face_weights(f, &d, photo, fr.source, fr.guard, people, k, feather, &head);
         int m = st == HD_OK ? jobs_of(q, r, fr.source, jobs) : 0;
         for (int i = 0; i < m && st == HD_OK; i++)
             st = photo_job(f, &d, feather, &head, q->rule, &fr, &jobs[i], backdrop && k == 0 ? &offsets[i] : NULL);

@@ -167,6 +167,15 @@ float hd_head_body_zone(const hd_head *h, int x, int y);
  * instead of the map). */
 hd_status hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, const hd_head *head, int W, int H,
                                  float *people);
+/* Face f's weights over photo (feather, photo-sized) and its head (head, for hd_head_free), as the
+ * ratio rule applies them (apply.c; d its decomposition, source its own light, guard as
+ * hd_ratio_field's): hd_photo_face_weight, hd_head_init and hd_head_weight. With people (the
+ * background relit) the body too, and the face's person added to people (hd_backdrop_add_person),
+ * which needs the person segmentation's map, else HD_ERR_ARG (k: the face's number for the reason,
+ * or -1 to name it by its box). `hdnet serve` builds its maps with it. */
+hd_status hd_face_weights(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
+                          const float source[HD_SH_COEFFS], float guard, float *people, int k, float *feather,
+                          hd_head *head);
 /* Extends one job's field over the head, in place: the face's log-ratio field warped into the
  * photo and filled (photo-sized, 1 or 3 planes), on the skin handed over to the ratio on the
  * blended normals beyond the mesh, on the hair the ratio on the proxy's normals. target NULL:

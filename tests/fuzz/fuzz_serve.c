@@ -35,8 +35,12 @@ static void json_light(const unsigned char *d, size_t n)
 {
     float light[HD_SH_COEFFS];
     hd_brightness b;
+    hd_background bg;
     char reason[256];
-    if (serve_light_from_json((const char *)d, n, light, &b, reason, sizeof reason) == HD_OK) check_light(light);
+    if (serve_light_from_json((const char *)d, n, light, &b, &bg, reason, sizeof reason) == HD_OK) {
+        check_light(light);
+        if (bg != HD_BACKGROUND_KEEP && bg != HD_BACKGROUND_RELIGHT) abort();
+    }
 }
 
 static void query_light(const unsigned char *d, size_t n)

@@ -1,4 +1,4 @@
-/* lights.c: the target light of a `hdnet serve` request, in the three forms `hdnet relight` takes
+/* lights.c: the target light of a `hdnet serve` request (and its background mode), in the three forms `hdnet relight` takes
  * (9 coefficients, a preset, a direction with intensity and ambient; a preset or a direction by
  * the same builder, tools/light_words.c, so the same checks and the same light), from a JSON body or a URL query, and a light as a DPR-style text file. */
 #include <cjson/cJSON.h>
@@ -36,10 +36,19 @@ static hd_status from_words(float az, float el, const float *intensity, const fl
     return st;
 }
 
+hd_status serve_background_from_word(const char *word, hd_background *background, char *reason, size_t size)
+{
+    if (word && strcmp(word, "keep") == 0) *background = HD_BACKGROUND_KEEP;
+    else if (word && strcmp(word, "relight") == 0) *background = HD_BACKGROUND_RELIGHT;
+    else return cli_refuse(reason, size, "\"background\" is \"keep\" (the default) or \"relight\" (as hdnet relight --background)");
+    return HD_OK;
+}
+
 hd_status serve_light_from_json(const char *body, size_t n, float light[HD_SH_COEFFS], hd_brightness *brightness,
-                             char *reason, size_t size)
+                             hd_background *background, char *reason, size_t size)
 {
     *brightness = HD_BRIGHTNESS_KEEP;
+    *background = HD_BACKGROUND_KEEP;
     if (n == 0) return cli_refuse(reason, size, "the body is empty: send a JSON light");
     cJSON *root = cJSON_ParseWithLength(body, n);
     if (!root || !cJSON_IsObject(root)) {
@@ -54,6 +63,7 @@ hd_status serve_light_from_json(const char *body, size_t n, float light[HD_SH_CO
     const cJSON *in = cJSON_GetObjectItemCaseSensitive(root, "intensity");
     const cJSON *am = cJSON_GetObjectItemCaseSensitive(root, "ambient");
     const cJSON *br = cJSON_GetObjectItemCaseSensitive(root, "brightness");
+    const cJSON *bg = cJSON_GetObjectItemCaseSensitive(root, "background");
     const int forms = (coeffs != NULL) + (preset != NULL) + (az != NULL || el != NULL);
     if (forms != 1) {
         st = cli_refuse(reason, size, "give exactly one of \"light\" (9 numbers), \"preset\" (0..%d) and "
@@ -85,6 +95,7 @@ hd_status serve_light_from_json(const char *body, size_t n, float light[HD_SH_CO
         else if (cJSON_IsString(br) && strcmp(br->valuestring, "free") == 0) *brightness = HD_BRIGHTNESS_FREE;
         else st = cli_refuse(reason, size, "\"brightness\" is \"keep\" or \"free\"");
     }
+    if (st == HD_OK && bg) st = serve_background_from_word(cJSON_IsString(bg) ? bg->valuestring : NULL, background, reason, size);
     cJSON_Delete(root);
     return st;
 }

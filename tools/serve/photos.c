@@ -17,9 +17,11 @@
 #include "../hdnet_tool.h"
 #include "serve.h"
 
-const char *const serve_map_names[SERVE_MAPS] = {"photo",       "normal",     "shading",      "mask",     "weight",
-                                                   "skin",        "head_normal", "head_proxy", "head_weights",
-                                                   "head_mesh"};
+const char *const serve_map_names[SERVE_MAPS] = {
+    "photo",       "normal",      "shading",          "mask",           "weight",
+    "skin",        "head_normal", "head_proxy",       "head_weights",   "head_mesh",
+    "body_weight", "body_level",  "body_head_normal", "body_head_proxy", "body_head_weights",
+    "body_head_mesh", "people"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -107,80 +109,144 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
     return st;
 }
 
-/* The heads' maps (hd_head, docs/usage.md "The whole head"), photo-sized: over each face's window,
- * a later face's over an earlier's, the blended normals and the proxy's, the skin's and the hair's
- * weights with how near the skin (ws, wh, near) and how much of the face's own field holds (mesh). */
-typedef struct head_maps {
-    hd_image normal, proxy, weights, mesh;
-} head_maps;
+/* The maps of one background mode (hd_face_weights, docs/usage.md "The whole head" and "The
+ * background"), photo-sized: the render's weight, the largest of the faces'; the brightness's level
+ * weight (hd_head_level: the weight without the body's share); over each face's head window, a
+ * later face's over an earlier's, the blended normals and the proxy's, the skin's and the hair's
+ * weights with how near the skin (ws, wh, near) and how much of the face's own field holds (mesh);
+ * with the background relit, the people (NULL when kept). */
+typedef struct mode_maps {
+    hd_image weight, level, normal, proxy, weights, mesh;
+    float *people;
+} mode_maps;
+
+static hd_status mode_maps_alloc(mode_maps *mm, int W, int H, int body)
+{
+    hd_status st = hd_image_alloc(&mm->weight, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&mm->level, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&mm->normal, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&mm->proxy, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&mm->weights, W, H, 3);
+    if (st == HD_OK) st = hd_image_alloc(&mm->mesh, W, H, 1);
+    if (st == HD_OK && body && !(mm->people = hd_calloc((size_t)W * H, sizeof(float)))) st = HD_ERR_NOMEM;
+    return st;
+}
+
+static void mode_maps_free(mode_maps *mm)
+{
+    hd_image *all[] = {&mm->weight, &mm->level, &mm->normal, &mm->proxy, &mm->weights, &mm->mesh};
+    for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
+    free(mm->people);
+}
 
 /* An 8-bit map's value for a weight: one level for a weight above 0 but under half a level, so that
  * the map is 0 exactly where the weight is. */
 static float level_of_weight(float w) { return w > 0.0f && w < 0.5f / 255.0f ? 1.0f / 255.0f : w; }
 
-/* Face f's render weight, as hd_apply_photo computes it (hd_photo_face_weight, then over its head
- * hd_head_weight), into weight as the largest over the faces so far; its head's maps into hm and
- * its window, guard and blur into sf. light is its own light; scratch is photo-sized. */
-static hd_status add_face_weight(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
-                                 float *scratch, hd_image *weight, head_maps *hm, serve_face *sf)
+/* Face f's weights as hd_apply_photo computes them (hd_face_weights: with mm->people, the body's and
+ * the face's person too) into mm, as the largest over the faces so far; its head's maps over its
+ * window, and the window into `window` (w 0: no head), its guard and blur into sf. scratch is
+ * photo-sized. */
+static hd_status add_face_weight(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo, int k,
+                                 float *scratch, mode_maps *mm, int window[4], serve_face *sf)
 {
     hd_head h;
     memset(&h, 0, sizeof h);
-    hd_status st = hd_photo_face_weight(f, photo, scratch);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, sf->light, 0.0f, 0, &h);
-    if (st == HD_OK) st = hd_head_weight(&h, scratch);
-    for (size_t p = 0; st == HD_OK && p < (size_t)weight->width * weight->height; p++)
-        if (scratch[p] > weight->data[p]) weight->data[p] = scratch[p];
-    memset(sf->head, 0, sizeof sf->head);
-    sf->head_guard = sf->head_blur = 0.0f;
+    float *level = NULL;
+    hd_status st = hd_face_weights(f, d, photo, sf->light, 0.0f, mm->people, k, scratch, &h);
+    if (st == HD_OK) st = hd_head_level(&h, scratch, &level);
+    const float *lv = level ? level : scratch;
+    for (size_t p = 0; st == HD_OK && p < (size_t)photo->width * photo->height; p++) {
+        if (scratch[p] > mm->weight.data[p]) mm->weight.data[p] = scratch[p];
+        if (lv[p] > mm->level.data[p]) mm->level.data[p] = lv[p];
+    }
+    free(level);
+    memset(window, 0, 4 * sizeof *window);
     if (st == HD_OK && h.normal) {
-        sf->head[0] = h.x0, sf->head[1] = h.y0, sf->head[2] = h.w, sf->head[3] = h.h;
+        window[0] = h.x0, window[1] = h.y0, window[2] = h.w, window[3] = h.h;
         sf->head_guard = h.g, sf->head_blur = hd_head_blur(&h);
         const size_t N = (size_t)h.w * h.h, P = (size_t)h.W * h.H;
         for (int y = 0; y < h.h; y++)
             for (int x = 0; x < h.w; x++) {
                 const size_t i = (size_t)y * h.w + x, p = (size_t)(y + h.y0) * h.W + (x + h.x0);
                 for (int c = 0; c < 3; c++) {
-                    hm->normal.data[c * P + p] = (h.normal[c * N + i] + 1.0f) * 0.5f;
-                    hm->proxy.data[c * P + p] = (h.proxy[c * N + i] + 1.0f) * 0.5f;
+                    mm->normal.data[c * P + p] = (h.normal[c * N + i] + 1.0f) * 0.5f;
+                    mm->proxy.data[c * P + p] = (h.proxy[c * N + i] + 1.0f) * 0.5f;
                 }
-                hm->weights.data[p] = level_of_weight(h.ws[i]);
-                hm->weights.data[P + p] = level_of_weight(h.wh[i]);
-                hm->weights.data[2 * P + p] = h.near[i];
+                mm->weights.data[p] = level_of_weight(h.ws[i]);
+                mm->weights.data[P + p] = level_of_weight(h.wh[i]);
+                mm->weights.data[2 * P + p] = h.near[i];
                 /* 255 exactly where the face's own field holds fully (the page's mesh >= 1) */
-                hm->mesh.data[p] = h.mesh[i] >= 1.0f ? 1.0f : fminf(h.mesh[i], 254.0f / 255.0f);
+                mm->mesh.data[p] = h.mesh[i] >= 1.0f ? 1.0f : fminf(h.mesh[i], 254.0f / 255.0f);
             }
     }
     hd_head_free(&h);
     return st;
 }
 
+/* Encodes one mode's maps into maps[..._at] (-1: not this mode's): weight, level (with the background
+ * relit only: kept, it is the weight), the four head maps from head_at on, and the people (the
+ * weights and the people 0 exactly where they are). */
+static hd_status encode_mode(mode_maps *mm, serve_blob *maps, int weight_at, int level_at, int head_at, int people_at)
+{
+    const size_t P = (size_t)mm->weight.width * mm->weight.height;
+    for (size_t q = 0; q < P; q++) {
+        mm->weight.data[q] = level_of_weight(mm->weight.data[q]);
+        mm->level.data[q] = level_of_weight(mm->level.data[q]);
+        if (mm->people) mm->people[q] = level_of_weight(mm->people[q]);
+    }
+    hd_status st = serve_picture_encode_png(&mm->weight, &maps[weight_at]);
+    if (st == HD_OK && level_at >= 0) st = serve_picture_encode_png(&mm->level, &maps[level_at]);
+    const hd_image *head[] = {&mm->normal, &mm->proxy, &mm->weights, &mm->mesh};
+    for (int k = 0; k < 4 && st == HD_OK; k++) st = serve_picture_encode_png(head[k], &maps[head_at + k]);
+    if (st == HD_OK && people_at >= 0) {
+        hd_image people = {mm->weight.width, mm->weight.height, 1, mm->people};
+        st = serve_picture_encode_png(&people, &maps[people_at]);
+    }
+    return st;
+}
+
+/* Whether every face has its person map (the background can be relit); else the reason. */
+static int background_can_be_relit(serve_photo *p, const hd_aligned_face *faces)
+{
+    for (int k = 0; k < p->nfaces; k++)
+        if (!faces[k].person.data) {
+            snprintf(p->background_reason, sizeof p->background_reason,
+                     "the background is relit only where the person segmentation finds the person, and it did not "
+                     "about face %d", k);
+            return 0;
+        }
+    return 1;
+}
+
 /* The maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces), shading as
- * s / 2, the feathered mask, the render's weight (a weight above 0 but under half a level is sent
- * as one level, so the map is 0 exactly where the render leaves the photo as it is), the skin (1
- * where the render's log r is the model's own, 0 where it is filled), and the heads' (head_maps;
- * normals as (n + 1) / 2, ws and wh as the weight). */
+ * s / 2, the feathered mask, the skin (1 where the render's log r is the model's own, 0 where it is
+ * filled), and each background mode's (mode_maps; weights with a weight above 0 but under half a
+ * level sent as one level, so the map is 0 exactly where the render leaves the photo as it is;
+ * normals as (n + 1) / 2). The background relit's cost about as much again as the kept's (the
+ * torso, the body's outline, the person): made here, once, outside the engine's lock. */
 static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const hd_decomposition *ds)
 {
     const int W = p->width, H = p->height;
     face_maps fm = {0};
-    head_maps hm = {0};
-    hd_image weight = {0}, encoded = {0};
+    mode_maps keep = {0}, body = {0};
+    hd_image encoded = {0};
+    p->background_relit = background_can_be_relit(p, faces);
     hd_status st = hd_image_alloc(&fm.normal, W, H, 3);
     if (st == HD_OK) st = hd_image_alloc(&fm.shading, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.mask, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.skin, W, H, 1);
-    if (st == HD_OK) st = hd_image_alloc(&weight, W, H, 1);
-    if (st == HD_OK) st = hd_image_alloc(&hm.normal, W, H, 3);
-    if (st == HD_OK) st = hd_image_alloc(&hm.proxy, W, H, 3);
-    if (st == HD_OK) st = hd_image_alloc(&hm.weights, W, H, 3);
-    if (st == HD_OK) st = hd_image_alloc(&hm.mesh, W, H, 1);
+    if (st == HD_OK) st = mode_maps_alloc(&keep, W, H, 0);
+    if (st == HD_OK && p->background_relit) st = mode_maps_alloc(&body, W, H, 1);
     float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
     if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
     float face_side = 0.0f;
     for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
+        serve_face *sf = &p->faces[k];
         st = add_face_maps(&faces[k], &ds[k], &fm);
-        if (st == HD_OK) st = add_face_weight(&faces[k], &ds[k], &p->image, scratch, &weight, &hm, &p->faces[k]);
+        if (st == HD_OK) st = add_face_weight(&faces[k], &ds[k], &p->image, k, scratch, &keep, sf->head, sf);
+        if (st == HD_OK && p->background_relit)
+            st = add_face_weight(&faces[k], &ds[k], &p->image, k, scratch, &body, sf->body_head, sf);
         float side = fminf(faces[k].box[2] - faces[k].box[0], faces[k].box[3] - faces[k].box[1]);
         if (side > face_side) face_side = side;
     }
@@ -193,17 +259,16 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = serve_picture_encode_png(&encoded, &p->maps[SERVE_MAP_NORMAL]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.shading, &p->maps[SERVE_MAP_SHADING]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.mask, &p->maps[SERVE_MAP_MASK]);
-    for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++) weight.data[q] = level_of_weight(weight.data[q]);
-    if (st == HD_OK) st = serve_picture_encode_png(&weight, &p->maps[SERVE_MAP_WEIGHT]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.skin, &p->maps[SERVE_MAP_SKIN]);
-    if (st == HD_OK) st = serve_picture_encode_png(&hm.normal, &p->maps[SERVE_MAP_HEAD_NORMAL]);
-    if (st == HD_OK) st = serve_picture_encode_png(&hm.proxy, &p->maps[SERVE_MAP_HEAD_PROXY]);
-    if (st == HD_OK) st = serve_picture_encode_png(&hm.weights, &p->maps[SERVE_MAP_HEAD_WEIGHTS]);
-    if (st == HD_OK) st = serve_picture_encode_png(&hm.mesh, &p->maps[SERVE_MAP_HEAD_MESH]);
+    if (st == HD_OK) st = encode_mode(&keep, p->maps, SERVE_MAP_WEIGHT, -1, SERVE_MAP_HEAD_NORMAL, -1);
+    if (st == HD_OK && p->background_relit)
+        st = encode_mode(&body, p->maps, SERVE_MAP_BODY_WEIGHT, SERVE_MAP_BODY_LEVEL, SERVE_MAP_BODY_HEAD_NORMAL,
+                         SERVE_MAP_PEOPLE);
     free(scratch);
-    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask,    &fm.skin, &weight,
-                       &encoded,   &hm.normal,  &hm.proxy,   &hm.weights, &hm.mesh};
+    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &encoded};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
+    mode_maps_free(&keep);
+    mode_maps_free(&body);
     return st;
 }
 

@@ -61,13 +61,18 @@ typedef struct serve_face {
     int head[4];      /* its head's window x0, y0, w, h in photo pixels (hd_head); w 0: no head */
     float head_guard; /* the head's guard g (hd_head) */
     float head_blur;  /* the blur of the head's log ratios, sigma in photo pixels (hd_head_blur) */
+    int body_head[4]; /* the head's window with the body (the background relit); w 0: none */
 } serve_face;
 
-/* The maps the page relights with, all at the photo's size (docs/serve.md, "The page"). */
+/* The maps the page relights with, all at the photo's size (docs/serve.md, "The page"). The body_*
+ * maps and people are those of the background relit (the render's with HD_BACKGROUND_RELIGHT), made
+ * only for a photo whose every face's person the segmentation finds (serve_photo.background_relit). */
 enum { SERVE_MAP_PHOTO = 0, SERVE_MAP_NORMAL, SERVE_MAP_SHADING, SERVE_MAP_MASK, SERVE_MAP_WEIGHT, SERVE_MAP_SKIN,
-       SERVE_MAP_HEAD_NORMAL, SERVE_MAP_HEAD_PROXY, SERVE_MAP_HEAD_WEIGHTS, SERVE_MAP_HEAD_MESH, SERVE_MAPS };
+       SERVE_MAP_HEAD_NORMAL, SERVE_MAP_HEAD_PROXY, SERVE_MAP_HEAD_WEIGHTS, SERVE_MAP_HEAD_MESH,
+       SERVE_MAP_BODY_WEIGHT, SERVE_MAP_BODY_LEVEL, SERVE_MAP_BODY_HEAD_NORMAL, SERVE_MAP_BODY_HEAD_PROXY,
+       SERVE_MAP_BODY_HEAD_WEIGHTS, SERVE_MAP_BODY_HEAD_MESH, SERVE_MAP_PEOPLE, SERVE_MAPS };
 /* "photo", "normal", "shading", "mask", "weight", "skin", "head_normal", "head_proxy", "head_weights",
- * "head_mesh" */
+ * "head_mesh", then "body_" before weight, level and the four head maps, and "people" */
 extern const char *const serve_map_names[SERVE_MAPS];
 
 typedef struct serve_photo {
@@ -76,7 +81,9 @@ typedef struct serve_photo {
     hd_image image;     /* the decoded photo, 3 channels */
     int nfaces;
     serve_face *faces;
-    serve_blob maps[SERVE_MAPS]; /* each an 8-bit PNG */
+    serve_blob maps[SERVE_MAPS]; /* each an 8-bit PNG (the background's empty without background_relit) */
+    int background_relit;        /* the photo has the maps of the background relit ... */
+    char background_reason[192]; /* ... or why not */
     /* owned by the store */
     unsigned long last_used;
     int refs;
@@ -116,11 +123,14 @@ int serve_store_count(serve_store *s);
 /* ------------------------------------------------------------ lights from requests (lights.c) */
 
 /* A light from a JSON request body: {"light": [9 numbers]}, {"preset": K} or {"azimuth": AZ,
- * "elevation": EL [, "intensity": I] [, "ambient": A]} (defaults as `hdnet relight --dir`), and an
- * optional "brightness": "keep" (the default) or "free". The reason for a refusal goes to
- * `reason`. */
+ * "elevation": EL [, "intensity": I] [, "ambient": A]} (defaults as `hdnet relight --dir`), an
+ * optional "brightness": "keep" (the default) or "free", and an optional "background": "keep" (the
+ * default) or "relight". The reason for a refusal goes to `reason`. */
 hd_status serve_light_from_json(const char *body, size_t n, float light[HD_SH_COEFFS], hd_brightness *brightness,
-                             char *reason, size_t reason_size);
+                             hd_background *background, char *reason, size_t reason_size);
+/* The background mode a word names: "keep" or "relight" (`hdnet relight --background`); anything
+ * else (NULL too) is refused with a reason. */
+hd_status serve_background_from_word(const char *word, hd_background *background, char *reason, size_t reason_size);
 /* The same from a URL query's values (NULL when absent): preset, or azimuth and elevation with
  * intensity and ambient. */
 hd_status serve_light_from_query(const char *preset, const char *azimuth, const char *elevation, const char *intensity,

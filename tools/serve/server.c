@@ -154,13 +154,23 @@ static cJSON *photo_json(const serve_server *s, const serve_photo *p, const char
             for (int i = 0; i < 4; i++) cJSON_AddItemToArray(win, cJSON_CreateNumber(f->head[i]));
             cJSON_AddNumberToObject(h, "guard", precise(f->head_guard));
             cJSON_AddNumberToObject(h, "blur", precise(f->head_blur));
+            if (p->background_relit) { /* with the body (the background relit: the body_* maps) */
+                cJSON *bw = cJSON_AddArrayToObject(h, "body_window");
+                for (int i = 0; i < 4; i++) cJSON_AddItemToArray(bw, cJSON_CreateNumber(f->body_head[i]));
+            }
         } else {
             cJSON_AddNullToObject(o, "head");
         }
         cJSON_AddItemToArray(faces, o);
     }
+    /* the background modes a render of this photo takes (relight: the person found about every face) */
+    cJSON *modes = cJSON_AddArrayToObject(j, "backgrounds");
+    cJSON_AddItemToArray(modes, cJSON_CreateString("keep"));
+    if (p->background_relit) cJSON_AddItemToArray(modes, cJSON_CreateString("relight"));
+    else cJSON_AddStringToObject(j, "background_reason", p->background_reason);
     cJSON *maps = cJSON_AddObjectToObject(j, "maps");
     for (int m = 0; m < SERVE_MAPS; m++) {
+        if (!p->maps[m].size) continue; /* the background relit's, for a photo without them */
         char url[96];
         snprintf(url, sizeof url, "/api/photos/%s/maps/%s.png", p->id, serve_map_names[m]);
         cJSON_AddStringToObject(maps, serve_map_names[m], url);
@@ -293,15 +303,22 @@ static enum MHD_Result render(struct MHD_Connection *c, serve_server *s, serve_p
 {
     float light[HD_SH_COEFFS];
     hd_brightness brightness = HD_BRIGHTNESS_KEEP;
+    hd_background background = HD_BACKGROUND_KEEP;
     const int delight = strcmp(op, "delight") == 0;
-    if (strcmp(op, "relight") == 0) {
+    char reason[256];
+    if (strcmp(op, "relight") == 0) { /* the background in the JSON body, with the light */
         if (!content_type_is(c, "application/json"))
             return send_error(c, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "send the light as application/json");
-        char reason[256];
-        if (serve_light_from_json((const char *)r->body.data, r->body.size, light, &brightness, reason, sizeof reason) !=
-            HD_OK)
+        if (query(c, "background"))
+            return send_error(c, MHD_HTTP_BAD_REQUEST, "relight takes \"background\" in its JSON body, not the query");
+        if (serve_light_from_json((const char *)r->body.data, r->body.size, light, &brightness, &background, reason,
+                                  sizeof reason) != HD_OK)
             return send_error(c, MHD_HTTP_BAD_REQUEST, "%s", reason);
-    } else if (strcmp(op, "transfer") == 0) {
+    } else if (query(c, "background") && /* delight and transfer: ?background=, with ?ref= */
+               serve_background_from_word(query(c, "background"), &background, reason, sizeof reason) != HD_OK) {
+        return send_error(c, MHD_HTTP_BAD_REQUEST, "%s", reason);
+    }
+    if (strcmp(op, "transfer") == 0) {
         const char *ref_id = query(c, "ref");
         if (!ref_id) return send_error(c, MHD_HTTP_BAD_REQUEST, "transfer needs ?ref=ID (the photo whose light to take)");
         serve_photo *ref = valid_id(ref_id, strlen(ref_id)) ? serve_store_get(&s->store, ref_id) : NULL;
@@ -309,17 +326,26 @@ static enum MHD_Result render(struct MHD_Connection *c, serve_server *s, serve_p
         /* face 0's light as a reference: what hd_estimate_light_photo (hdnet transfer --ref) estimates */
         memcpy(light, ref->faces[0].ref_light, sizeof light);
         serve_store_release(&s->store, ref);
-    } else if (!delight) {
+    } else if (!delight && strcmp(op, "relight") != 0) {
         return send_error(c, MHD_HTTP_NOT_FOUND, "no such operation '%.32s'", op);
     }
     hd_image out = {0};
     int nfaces = 0;
     pthread_mutex_lock(&s->engine.lock);
-    hd_status st = delight ? hd_relight_photo(s->engine.model, s->engine.aligner, &p->image, NULL, 0,
+    /* the mode for this call only: the model is shared, and the next request may want the other */
+    const hd_background was = hd_model_background(s->engine.model);
+    hd_status st = hd_model_set_background(s->engine.model, background);
+    if (st == HD_OK)
+        st = delight ? hd_relight_photo(s->engine.model, s->engine.aligner, &p->image, NULL, 0,
                                               HD_BRIGHTNESS_KEEP, NULL, &out, &nfaces)
                            : hd_relight_photo(s->engine.model, s->engine.aligner, &p->image,
                                               (const float (*)[HD_SH_COEFFS])light, 1, brightness, &out, NULL, &nfaces);
+    const hd_status restored = hd_model_set_background(s->engine.model, was);
     pthread_mutex_unlock(&s->engine.lock);
+    if (st == HD_OK && restored != HD_OK) {
+        hd_image_free(&out);
+        st = restored;
+    }
     if (st != HD_OK) return send_error(c, status_of(st), "%s", hd_error());
     char filename[64];
     snprintf(filename, sizeof filename, "%s-%s.png", p->id, delight ? "delit" : "relit");
@@ -360,8 +386,12 @@ static enum MHD_Result photo_route(struct MHD_Connection *c, serve_server *s, co
             size_t n = strlen(serve_map_names[m]);
             if (strncmp(name, serve_map_names[m], n) == 0 && strcmp(name + n, ".png") == 0) break;
         }
-        ok = m < SERVE_MAPS ? send_bytes(c, MHD_HTTP_OK, "image/png", p->maps[m].data, p->maps[m].size, NULL)
-                         : send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' (photo, normal, shading, mask, weight, skin .png)", name);
+        if (m == SERVE_MAPS)
+            ok = send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' (the upload's \"maps\" names them)", name);
+        else if (!p->maps[m].size)
+            ok = send_error(c, MHD_HTTP_NOT_FOUND, "no map '%.32s' for this photo: %s", name, p->background_reason);
+        else
+            ok = send_bytes(c, MHD_HTTP_OK, "image/png", p->maps[m].data, p->maps[m].size, NULL);
     } else if (strcmp(rest, "/light.txt") == 0 && get) {
         const char *fs = query(c, "face");
         char *end = NULL;
