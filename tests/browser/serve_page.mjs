@@ -3,7 +3,9 @@
 // the bundled photo, drags the light on the sphere to the left and then to the right and checks
 // that the face on the canvas brightens on the side of the light (and nothing outside the heads
 // changes), prints the time of one preview frame, moves the light with the keyboard, toggles before/after, clicks preset 1 and "Render"
-// and checks that the canvas then holds exactly the server's relight, delights, saves screenshots
+// and checks that the canvas then holds exactly the server's relight; then the same with the
+// background relit (the keyboard selects it): the wall's corners change in the preview, which stays
+// close to the server's render, and the canvas holds the server's relight after Render; delights, saves screenshots
 // (SHOT.png after the render, SHOT-live.png of the preview with the light on the left),
 // and checks that the page asked nothing of any other host. Prints one line per check and
 // "N passed, M failed"; exits 1 on a failure.
@@ -90,6 +92,91 @@ async function drag(page, fx, fy) {
   await page.waitForTimeout(100); // the last frame of the drag
 }
 
+// Over the pixels either the canvas (the server's render) or the saved preview (window.previewPixels)
+// changes from the photo: the mean difference between the two in 8-bit levels, and the mean change;
+// person: only where the background relit's weight map is above 0 (the head and the body).
+function agreement(page, person = false) {
+  return page.evaluate((person) => {
+    const c = document.getElementById('photo'), got = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    const pre = window.previewPixels, b = window.hdnet.state.maps.base.data;
+    const w = person ? window.hdnet.state.mapsBody.weight.data : null;
+    let sum = 0, n = 0, moved = 0;
+    for (let i = 0; i < got.length; i += 4) {
+      if (w && !(w[i] > 0)) continue;
+      let changed = false;
+      for (let k = 0; k < 3; k++) changed = changed || got[i + k] !== b[i + k] || pre[i + k] !== b[i + k];
+      if (!changed) continue;
+      for (let k = 0; k < 3; k++) sum += Math.abs(got[i + k] - pre[i + k]), moved += Math.abs(got[i + k] - b[i + k]);
+      n += 3;
+    }
+    return { diff: sum / n, change: moved / n, n: n / 3 };
+  }, person);
+}
+
+// Keeps the canvas as it is in window.previewPixels.
+function savePreview(page) {
+  return page.evaluate(() => {
+    const c = document.getElementById('photo');
+    window.previewPixels = c.getContext('2d').getImageData(0, 0, c.width, c.height).data.slice();
+  });
+}
+
+// How many samples of the canvas differ from the server's relight of the photo under preset 1 (body:
+// the request's JSON besides the preset).
+function differsFromServer(page, id, body) {
+  return page.evaluate(async ([id, body]) => {
+    const r = await fetch('/api/photos/' + id + '/relight', { method: 'POST', headers: { 'Content-Type': 'application/json' },
+      body: JSON.stringify(Object.assign({ preset: 1 }, body)) });
+    const bm = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
+    const c = document.createElement('canvas');
+    c.width = bm.width;
+    c.height = bm.height;
+    const x = c.getContext('2d');
+    x.drawImage(bm, 0, 0);
+    const want = x.getImageData(0, 0, c.width, c.height).data;
+    const p = document.getElementById('photo'), got = p.getContext('2d').getImageData(0, 0, p.width, p.height).data;
+    let differ = 0;
+    for (let i = 0; i < want.length; i++) if (want[i] !== got[i]) differ++;
+    return differ;
+  }, [id, body]);
+}
+
+// The wall's corners: of the canvas's four 8 x 8 corner blocks, those where the server's people map
+// is 0 (all wall); how many there are and how many of their pixels differ from the photo.
+function corners(page) {
+  return page.evaluate(() => {
+    const c = document.getElementById('photo'), W = c.width, H = c.height, d = c.getContext('2d').getImageData(0, 0, W, H).data;
+    const b = window.hdnet.state.maps.base.data, people = window.hdnet.state.mapsBody.people;
+    let blocks = 0, pixels = 0, changed = 0;
+    for (const [x0, y0] of [[0, 0], [W - 8, 0], [0, H - 8], [W - 8, H - 8]]) {
+      let wall = true;
+      for (let y = y0; y < y0 + 8; y++) for (let x = x0; x < x0 + 8; x++) wall = wall && people[y * W + x] === 0;
+      if (!wall) continue;
+      blocks++;
+      for (let y = y0; y < y0 + 8; y++)
+        for (let x = x0; x < x0 + 8; x++) {
+          const i = 4 * (y * W + x);
+          pixels++;
+          if (d[i] !== b[i] || d[i + 1] !== b[i + 1] || d[i + 2] !== b[i + 2]) changed++;
+        }
+    }
+    return { blocks, pixels, changed };
+  });
+}
+
+// The median time of 15 preview frames (relightInPage, the light and the background as they are).
+function frameTime(page) {
+  return page.evaluate(() => {
+    const t = [];
+    for (let i = 0; i < 15; i++) {
+      const t0 = performance.now();
+      window.hdnet.relight();
+      t.push(performance.now() - t0);
+    }
+    return t.sort((a, b) => a - b)[7];
+  });
+}
+
 const { server, base } = await startServer();
 const profile = mkdtempSync(join(tmpdir(), 'hdnet-chromium-'));
 let context;
@@ -134,15 +221,7 @@ try {
     `light from the left: face left ${lit_left.left.toFixed(1)} right ${lit_left.right.toFixed(1)}; ` +
     `from the right: left ${lit_right.left.toFixed(1)} right ${lit_right.right.toFixed(1)}`);
   // the time of one preview frame (relightInPage, the light as it is), the median of 15
-  const frameMs = await page.evaluate(() => {
-    const t = [];
-    for (let i = 0; i < 15; i++) {
-      const t0 = performance.now();
-      window.hdnet.relight();
-      t.push(performance.now() - t0);
-    }
-    return t.sort((a, b) => a - b)[7];
-  });
+  const frameMs = await frameTime(page);
   console.log('frame: ' + frameMs.toFixed(1) + ' ms for one preview of the ' + photo.width + ' x ' + photo.height + ' photo');
   const ch = await changes(page);
   check(ch.inside > 500 && ch.outside === 0, 'only the head changes',
@@ -165,26 +244,14 @@ try {
   await page.click('#presets button[data-preset="1"]');
   check(await page.getAttribute('#presets button[data-preset="1"]', 'aria-pressed') === 'true', 'preset 1 is selected');
   await page.waitForFunction((n) => window.hdnet.state.previews > n, previews);
-  await page.evaluate(() => {
-    const c = document.getElementById('photo');
-    window.previewPixels = c.getContext('2d').getImageData(0, 0, c.width, c.height).data.slice();
-  });
+  await savePreview(page);
+  const keptCorners = await corners(page);
+  check(keptCorners.blocks > 0 && keptCorners.changed === 0, 'with the background kept the wall\'s corners do not change',
+    `${keptCorners.changed} of ${keptCorners.pixels} pixels in ${keptCorners.blocks} corner blocks`);
   await page.click('#render');
   await page.waitForFunction(() => window.hdnet.state.view === 'server' && !window.hdnet.state.busy);
   // the preview follows the server's rule: over the pixels either changed, the mean difference in 8-bit levels
-  const near = await page.evaluate(() => {
-    const c = document.getElementById('photo'), got = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-    const pre = window.previewPixels, b = window.hdnet.state.maps.base.data;
-    let sum = 0, n = 0, moved = 0;
-    for (let i = 0; i < got.length; i += 4) {
-      let changed = false;
-      for (let k = 0; k < 3; k++) changed = changed || got[i + k] !== b[i + k] || pre[i + k] !== b[i + k];
-      if (!changed) continue;
-      for (let k = 0; k < 3; k++) sum += Math.abs(got[i + k] - pre[i + k]), moved += Math.abs(got[i + k] - b[i + k]);
-      n += 3;
-    }
-    return { diff: sum / n, change: moved / n, n: n / 3 };
-  });
+  const near = await agreement(page);
   // within 7 % of the change: the preview takes the server's weight and skin maps, fills log r
   // beyond the skin by push-pull and blurs it as the render does, then hands it over to each head's
   // rule from the server's head maps as hd_head_apply does (docs/serve.md); on this photo it
@@ -195,21 +262,7 @@ try {
     `mean difference ${near.diff.toFixed(2)} levels over ${near.n} pixels, where the render changes them by ` +
     `${near.change.toFixed(2)}: ${(100 * near.diff / near.change).toFixed(1)} %`);
   // the canvas now holds the server's relight under preset 1, pixel for pixel
-  const diff = await page.evaluate(async (id) => {
-    const r = await fetch('/api/photos/' + id + '/relight', { method: 'POST', headers: { 'Content-Type': 'application/json' },
-      body: JSON.stringify({ preset: 1, brightness: 'keep' }) });
-    const bm = await createImageBitmap(await r.blob(), { colorSpaceConversion: 'none', premultiplyAlpha: 'none' });
-    const c = document.createElement('canvas');
-    c.width = bm.width;
-    c.height = bm.height;
-    const x = c.getContext('2d');
-    x.drawImage(bm, 0, 0);
-    const want = x.getImageData(0, 0, c.width, c.height).data;
-    const p = document.getElementById('photo'), got = p.getContext('2d').getImageData(0, 0, p.width, p.height).data;
-    let differ = 0;
-    for (let i = 0; i < want.length; i++) if (want[i] !== got[i]) differ++;
-    return differ;
-  }, photo.id);
+  const diff = await differsFromServer(page, photo.id, { brightness: 'keep' });
   check(diff === 0, '"Render" shows the server\'s exact relight', diff + ' samples differ');
   const href = await page.getAttribute('#download', 'href');
   check(href && href.startsWith('blob:'), 'the result can be downloaded');
@@ -218,6 +271,49 @@ try {
   check(lightText.trim().split('\n').length === 9, 'the light file can be downloaded', lightHref);
   await page.screenshot({ path: shot });
   console.log('screenshot: ' + shot);
+
+  // the background relit (hdnet relight --background relight): chosen with the keyboard (the radio
+  // group: Tab to it, the arrow keys), the preview takes the body's maps and relights the wall
+  check((await page.evaluate(() => window.hdnet.state.photo.backgrounds)).includes('relight'),
+    'the server offers the background relit for the photo');
+  let shown = await page.evaluate(() => window.hdnet.state.previews);
+  await page.focus('#background input[value="keep"]');
+  await page.keyboard.press('ArrowRight');
+  check(await page.isChecked('#background-relight'), 'the keyboard selects "Background: relight"');
+  await page.waitForFunction((n) => window.hdnet.state.previews > n, shown);
+  await savePreview(page);
+  const relitCorners = await corners(page);
+  // (most: a channel at 0 or 255 stays where it is)
+  check(relitCorners.blocks > 0 && relitCorners.changed > 0.75 * relitCorners.pixels,
+    'with the background relit the wall\'s corners change in the preview',
+    `${relitCorners.changed} of ${relitCorners.pixels} pixels in ${relitCorners.blocks} corner blocks`);
+  const bodyFrameMs = await frameTime(page);
+  console.log('frame: ' + bodyFrameMs.toFixed(1) + ' ms for one preview of the ' + photo.width + ' x ' + photo.height +
+    ' photo with the background relit');
+  await page.evaluate(() => window.hdnet.relight()); // the canvas as saved (frameTime drew the same frame)
+  await page.click('#render');
+  await page.waitForFunction(() => window.hdnet.state.view === 'server' && !window.hdnet.state.busy);
+  const nearBody = await agreement(page);
+  // the same bound as the head's: the body's weights and normals are the server's maps (body_*),
+  // the wall one factor per channel over the people map, as src/apply/backdrop.c
+  check(nearBody.n > 500 && nearBody.diff < 0.07 * nearBody.change, 'with the background relit the preview is close to the server\'s render',
+    `mean difference ${nearBody.diff.toFixed(2)} levels over ${nearBody.n} pixels, where the render changes them by ` +
+    `${nearBody.change.toFixed(2)}: ${(100 * nearBody.diff / nearBody.change).toFixed(1)} %`);
+  const nearPerson = await agreement(page, true);
+  check(nearPerson.n > 500 && nearPerson.diff < 0.07 * nearPerson.change, '... and on the person (the head and the body) alone',
+    `mean difference ${nearPerson.diff.toFixed(2)} levels over ${nearPerson.n} pixels, where the render changes them by ` +
+    `${nearPerson.change.toFixed(2)}: ${(100 * nearPerson.diff / nearPerson.change).toFixed(1)} %`);
+  const diffBody = await differsFromServer(page, photo.id, { brightness: 'keep', background: 'relight' });
+  check(diffBody === 0, '"Render" shows the server\'s exact relight with the background relit', diffBody + ' samples differ');
+  const renderedCorners = await corners(page);
+  check(renderedCorners.changed > 0.75 * renderedCorners.pixels, 'the server\'s render relights the wall\'s corners too',
+    `${renderedCorners.changed} of ${renderedCorners.pixels}`);
+  shown = await page.evaluate(() => window.hdnet.state.previews);
+  await page.focus('#background-relight');
+  await page.keyboard.press('ArrowLeft');
+  await page.waitForFunction((n) => window.hdnet.state.previews > n, shown);
+  check((await corners(page)).changed === 0 && !(await page.isChecked('#background-relight')),
+    'back to "Background: keep", the corners are the photo\'s again');
 
   await page.click('#delight');
   await page.waitForFunction(() => window.hdnet.state.result && window.hdnet.state.result.what === 'delight' &&

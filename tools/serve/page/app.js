@@ -8,7 +8,10 @@
  * inside the mesh's edge, the forehead grown to the hairline with its outward fade), the eyes,
  * mouth and brows and the pixels beyond the mesh taking log r filled from the skin's (push-pull,
  * as the render) and blurred as the render's, and t the offset that keeps the
- * face's mean brightness. "Render" asks the server for its exact result (`hdnet relight`).
+ * face's mean brightness. With the background relit (`--background relight`) it takes the server's
+ * maps of that mode (the body's weights and normals) and then relights the wall, one factor per
+ * channel, where the people map leaves it (relightWall). "Render" asks the server for its exact
+ * result (`hdnet relight`).
  * Nothing is loaded from anywhere but the server. */
 'use strict';
 (() => {
@@ -50,12 +53,13 @@
     status: $('status'), drop: $('drop'), file: $('file'), view: $('view'), photo: $('photo'), overlay: $('overlay'),
     showing: $('showing'), sphere: $('sphere'), direction: $('direction'), intensity: $('intensity'),
     intensityValue: $('intensity-value'), ambient: $('ambient'), ambientValue: $('ambient-value'), keep: $('keep'),
-    presets: $('presets'), render: $('render'), before: $('before'), delight: $('delight'), ref: $('ref'),
+    presets: $('presets'), background: $('background'), backgroundRelight: $('background-relight'), render: $('render'), before: $('before'), delight: $('delight'), ref: $('ref'),
     transferLabel: $('transfer-label'), download: $('download'), downloadLight: $('download-light'), marks: $('marks'),
   };
   const state = {
     photo: null,      // the upload's JSON (id, size, faces, maps)
-    maps: null,       // the decoded maps, over the pixels the render may change only
+    maps: null,       // the decoded maps, over the pixels the render may change only (the background kept)
+    mapsBody: null,   // the same with the background relit (the body too, and the wall), or null
     presets: [],
     light: { kind: 'direction', azimuth: 0, elevation: 0, intensity: 1.5, ambient: 0.5, preset: -1, coeffs: null, ref: null },
     view: 'preview',  // 'preview' (in the page), 'server' (a render), 'before' (the photo as uploaded)
@@ -196,6 +200,11 @@
     lightChanged();
   });
   ui.keep.addEventListener('change', () => lightChanged());
+  ui.background.addEventListener('change', () => lightChanged());
+  // The background mode of the preview and of the server's renders: 'keep' or 'relight'.
+  function background() {
+    return state.mapsBody && ui.backgroundRelight.checked ? 'relight' : 'keep';
+  }
   // A slider moved under a preset or a transferred light: go on from its direction.
   function fromPresetToDirection() {
     const L = state.light;
@@ -373,8 +382,11 @@
   // shading s(N, l_face) of its face, the last whose landmarks' extent, grown by an eye distance,
   // holds it; the rest (those regions, the forehead beyond the mesh, the heads) takes log r filled
   // from the skin's over a window around the faces and their heads. Then each face's head
-  // (prepareHead), in the order the render takes them.
-  function prepareMaps(photo, normal, weight, skin, head, faces) {
+  // (prepareHead), in the order the render takes them. With the background relit, level is the
+  // server's body_level map (the weight without the body's share, whose luminance the brightness
+  // keeps: hd_head_level) and people its people map (the wall takes 1 - people of its change);
+  // both null with the background kept.
+  function prepareMaps(photo, normal, weight, skin, head, faces, level, people) {
     const W = photo.width, H = photo.height, n = W * H;
     const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
@@ -423,7 +435,8 @@
       m.level[j] = weight.data[4 * p];
       m.w[j] = m.level[j] / 255;
       m.top[j] = Math.max(m.rgb[3 * j], m.rgb[3 * j + 1], m.rgb[3 * j + 2]);
-      m.wLum[j] = m.w[j] * (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
+      m.wLum[j] = (level ? level.data[4 * p] / 255 : m.w[j]) *
+        (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
       m.goal += m.wLum[j];
       m.face[j] = k;
       if (k >= 0 && skin.data[4 * p] > 0) {
@@ -445,6 +458,11 @@
       if (k >= 0) m.guard[i] = RATIO_GUARD * (num[k] > 0 && sum[k] > 0 ? sum[k] / num[k] : 1);
     }
     for (const hd of m.heads) hd.ownPixel = Int32Array.from(hd.ownPixel), hd.ownIndex = Int32Array.from(hd.ownIndex);
+    if (people) { // the wall: each pixel's share 1 - people (one of 256 levels), and its light from the first face's
+      m.people = new Uint8Array(n);
+      for (let p = 0; p < n; p++) m.people[p] = people.data[4 * p];
+      m.wallLight = faces[0].light;
+    }
     return m;
   }
 
@@ -531,7 +549,7 @@
   // (relightHead), t the one offset that keeps the w-weighted mean luminance (--keep-brightness),
   // the factor lowered for a pixel where a channel would pass 1.
   function relightInPage() {
-    const m = state.maps, l = currentLight(), d = m.out.data;
+    const m = background() === 'relight' ? state.mapsBody : state.maps, l = currentLight(), d = m.out.data;
     const L = new Float32Array(m.n);
     for (let j = 0; j < m.n; j++) {
       if (!m.skin[j]) continue;
@@ -555,7 +573,7 @@
     for (let j = 0; j < m.n; j++) e[j] = Math.exp(m.w[j] * L[j]);
     let t = 0;
     if (ui.keep.checked && m.goal > 0)
-      for (let it = 0; it < 6; it++) { // Newton on sum w lum exp(w (L + t)) = goal
+      for (let it = 0; it < 6; it++) { // Newton on sum level lum exp(w (L + t)) = goal (level: w, or w without the body)
         let f = 0, df = 0;
         table(t);
         for (let j = 0; j < m.n; j++) {
@@ -567,15 +585,37 @@
         t -= (f - m.goal) / df;
       }
     table(t);
+    const wall = m.people ? relightWall(m, l, t) : null;
     for (let j = 0; j < m.n; j++) {
-      const p = 4 * m.px[j], r = m.rgb[3 * j], g = m.rgb[3 * j + 1], b = m.rgb[3 * j + 2], top = m.top[j];
+      const p = 4 * m.px[j], top = m.top[j];
       let k = e[j] * E[m.level[j]];
       if (top > 0 && k * top > 1) k = 1 / top;
-      d[p] = 255 * k * r + 0.5, d[p + 1] = 255 * k * g + 0.5, d[p + 2] = 255 * k * b + 0.5;
+      // (the canvas's bytes round to the nearest level, as the server's PNG does)
+      if (!wall) for (let c = 0; c < 3; c++) d[p + c] = 255 * k * m.rgb[3 * j + c];
+      else for (let c = 0; c < 3; c++) d[p + c] = 255 * Math.min(1, k * m.rgb[3 * j + c] * wall[256 * c + m.people[m.px[j]]]);
     }
     photoCtx.putImageData(m.out, 0, 0);
     state.previews++;
     ui.showing.textContent = 'preview (in the page)';
+  }
+
+  // The wall (src/apply/backdrop.c, hd_backdrop_apply): out = I * exp(b * (log r0 + t)), clamped to 1
+  // per channel, b = 1 - people, r0 the ratio of a wall facing the camera (n = (0, 0, 1)) under the
+  // light l and the first face's own, with the rule's guard (a hundredth of its source shading), t
+  // the faces' brightness offset. Writes every pixel the faces leave (they are written after, by
+  // the caller, with the same factors) and returns the factor of each channel and people level
+  // (3 x 256).
+  function relightWall(m, l, t) {
+    const s = Math.max(shade(m.wallLight, 0, 0, 1), 0), g = RATIO_GUARD * Math.max(s, 1e-6);
+    const lt = Math.max(shade(l, 0, 0, 1), 0), lr = lt === s ? 0 : Math.log((lt + g) / (s + g));
+    const F = new Float32Array(3 * 256);
+    for (let q = 0; q < 256; q++) F[q] = F[256 + q] = F[512 + q] = lr === 0 && t === 0 ? 1 : Math.exp((1 - q / 255) * (lr + t));
+    const d = m.out.data, base = m.base.data, people = m.people;
+    for (let p = 0; p < m.W * m.H; p++) {
+      const q = people[p], o = 4 * p;
+      for (let c = 0; c < 3; c++) d[o + c] = Math.min(255, base[o + c] * F[256 * c + q]);
+    }
+    return F;
   }
 
   let frame = 0;
@@ -637,10 +677,19 @@
     say('Finding and decomposing the faces of ' + file.name + '\u2026');
     try {
       const j = await uploadFile(file);
-      const [photo, normal, weight, skin, hn, hp, hw, hm] = await Promise.all(['photo', 'normal', 'weight', 'skin',
-        'head_normal', 'head_proxy', 'head_weights', 'head_mesh'].map((k) => mapPixels(j.maps[k])));
+      const relit = j.backgrounds.includes('relight'), body = relit ? ['body_weight', 'body_level', 'body_head_normal',
+        'body_head_proxy', 'body_head_weights', 'body_head_mesh', 'people'] : [];
+      const [photo, normal, weight, skin, hn, hp, hw, hm, ...bm] = await Promise.all(['photo', 'normal', 'weight', 'skin',
+        'head_normal', 'head_proxy', 'head_weights', 'head_mesh', ...body].map((k) => mapPixels(j.maps[k])));
       state.photo = j;
       state.maps = prepareMaps(photo, normal, weight, skin, { normal: hn, proxy: hp, weights: hw, mesh: hm }, j.faces);
+      // with the background relit: the body's maps, over the heads' windows with the body
+      const bodyFaces = j.faces.map((f) => Object.assign({}, f, { head: f.head && Object.assign({}, f.head, { window: f.head.body_window }) }));
+      state.mapsBody = relit ? prepareMaps(photo, normal, bm[0], skin, { normal: bm[2], proxy: bm[3], weights: bm[4], mesh: bm[5] },
+        bodyFaces, bm[1], bm[6]) : null;
+      ui.backgroundRelight.disabled = !relit;
+      ui.background.title = relit ? '' : j.background_reason;
+      if (!relit) ui.background.querySelector('input[value="keep"]').checked = true;
       for (const c of [ui.photo, ui.overlay]) {
         c.width = j.width;
         c.height = j.height;
@@ -697,10 +746,12 @@
   function render() {
     const L = state.light, id = state.photo && state.photo.id;
     if (!id) return;
-    if (L.kind === 'coeffs') return serverCall('transfer', '/api/photos/' + id + '/transfer?ref=' + L.ref);
+    if (L.kind === 'coeffs')
+      return serverCall('transfer', '/api/photos/' + id + '/transfer?ref=' + L.ref + '&background=' + background());
     const body = L.kind === 'preset' ? { preset: L.preset } :
       { azimuth: +L.azimuth.toFixed(2), elevation: +L.elevation.toFixed(2), intensity: L.intensity, ambient: L.ambient };
     body.brightness = ui.keep.checked ? 'keep' : 'free';
+    body.background = background();
     return serverCall('relight', '/api/photos/' + id + '/relight',
       { headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
   }
@@ -715,7 +766,8 @@
   }
 
   ui.render.addEventListener('click', render);
-  ui.delight.addEventListener('click', () => serverCall('delight', '/api/photos/' + state.photo.id + '/delight'));
+  ui.delight.addEventListener('click', () => serverCall('delight', '/api/photos/' + state.photo.id + '/delight?background=' +
+    background()));
   ui.before.addEventListener('click', async () => {
     const on = ui.before.getAttribute('aria-pressed') !== 'true';
     setBefore(on);
@@ -748,7 +800,7 @@
     const f = j.faces[0];
     Object.assign(state.light, { kind: 'coeffs', preset: -1, coeffs: f.light, ref: j.id, azimuth: f.azimuth, elevation: f.elevation });
     lightChanged();
-    await serverCall('transfer', '/api/photos/' + state.photo.id + '/transfer?ref=' + j.id);
+    await serverCall('transfer', '/api/photos/' + state.photo.id + '/transfer?ref=' + j.id + '&background=' + background());
   });
 
   // ---------------------------------------------------------------- choosing and dropping photos
