@@ -268,7 +268,7 @@ hd_status hd_face_weights(const hd_aligned_face *f, const hd_decomposition *d, c
                        which);
     }
     hd_status st = hd_photo_face_weight(f, photo, feather);
-    if (st == HD_OK) st = hd_head_init(f, d, photo, source, guard, people != NULL, head);
+    if (st == HD_OK) st = hd_head_init(f, d, photo, source, guard, people ? HD_HEAD_BODY_ALL : HD_HEAD_BODY_NEAR, head);
     if (st == HD_OK) st = hd_head_weight(head, feather);
     if (st == HD_OK && people) st = hd_backdrop_add_person(f, feather, head, photo->width, photo->height, people);
     return st;

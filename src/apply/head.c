@@ -70,6 +70,18 @@ static const float TORSO_C[3] = {0.0f, 0.0f, -6.0f}, TORSO_A[3] = {18.0f, 0.0f, 
  * where it starts. */
 #define BODY_FROM 1.3f
 #define BODY_TO 1.7f
+/* With the background kept (HD_HEAD_BODY_NEAR) the body takes the change near the neck only: it
+ * fades out from CHEST_FROM to CHEST_TO eye distances below the eyes, from CHEST_SIDE_FROM to
+ * CHEST_SIDE_TO to either side of the face's centre line, and over CHEST_EDGE inward from the
+ * person's outline. The neck's change, on the skin alone, ended in a band a little below the
+ * collarbones, blotched where a pale chest failed the skin's colour test (London tuning 029, 041,
+ * 086 under a side light); a relit shoulder would stand against the kept wall. Chosen by eye on
+ * London tuning faces 006, 012, 029, 041 and 086 under a side light and preset 3. */
+#define CHEST_FROM 2.5f
+#define CHEST_TO 4.0f
+#define CHEST_SIDE_FROM 1.2f
+#define CHEST_SIDE_TO 2.4f
+#define CHEST_EDGE 0.3f
 #define BODY_GUIDE 0.04f      /* the guided filter's scale (eye distances) ... */
 #define BODY_GUIDE_EPS 1e-3f  /* ... and its regulariser (luminance squared) */
 /* How far the change reaches beyond the proxy's silhouette, as its normalised radius (1: on it). */
@@ -134,7 +146,7 @@ void hd_head_free(hd_head *h)
 {
     if (!h) return;
     free(h->normal), free(h->proxy), free(h->mesh), free(h->skin), free(h->hair), free(h->bg);
-    free(h->body), free(h->zone), free(h->wb), free(h->ws), free(h->wh), free(h->near);
+    free(h->body), free(h->zone), free(h->neck), free(h->wb), free(h->ws), free(h->wh), free(h->near);
     memset(h, 0, sizeof *h);
 }
 
@@ -490,6 +502,39 @@ static hd_status body_outline(hd_head *h, const hd_aligned_face *f, const hd_ima
     return st;
 }
 
+/* How near the neck window pixel (x, y) of h lies: 1 down to CHEST_FROM eye distances below the eyes
+ * and within CHEST_SIDE_FROM of the face's centre line, fading to 0 at CHEST_TO and CHEST_SIDE_TO. */
+static float near_neck(const hd_head *h, int x, int y)
+{
+    const float depth = -hd_face_height(&h->frame, x + h->x0, y + h->y0);
+    const float side = fabsf(hd_face_side(&h->frame, x + h->x0, y + h->y0));
+    return (1 - hd_field_smoothstep((depth - CHEST_FROM) / (CHEST_TO - CHEST_FROM))) *
+           (1 - hd_field_smoothstep((side - CHEST_SIDE_FROM) / (CHEST_SIDE_TO - CHEST_SIDE_FROM)));
+}
+
+/* The body's reach near the neck (h->neck): near_neck, and within CHEST_EDGE fading toward the
+ * person's outline (the body's outline, body_outline, where the torso reaches; the network's map
+ * above it). With the background kept (HD_HEAD_BODY_NEAR) the body's weight is cut to it, so the
+ * change ends inside the person, smoothly, on skin and clothes alike; with the background relit it
+ * is the body's part of the brightness kept (hd_head_weight's wb), the same as with it kept. */
+static hd_status neck_reach(hd_head *h, const hd_aligned_face *f)
+{
+    const size_t N = (size_t)h->w * h->h;
+    float *inside = hd_malloc(N * sizeof(float));
+    hd_status st = inside && (h->neck || (h->neck = hd_malloc(N * sizeof(float)))) ? HD_OK : HD_ERR_NOMEM;
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            const size_t i = (size_t)y * h->w + x;
+            const float share = h->zone[i] > 1e-6f ? h->body[i] / h->zone[i] : person_below(f, x + h->x0, y + h->y0);
+            inside[i] = share >= 0.5f ? 1.0f : 0.0f;
+        }
+    if (st == HD_OK) st = hd_field_feather(inside, h->w, h->h, fmaxf(2.0f, CHEST_EDGE * h->frame.e), h->neck);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) h->neck[(size_t)y * h->w + x] *= near_neck(h, x, y);
+    free(inside);
+    return st;
+}
+
 /* How far the hair reaches at photo pixel (x, y), as the skull's normalised radius, and the weight
  * of hair at radius rs there (1 up to the fade). */
 static float hair_reach(const hd_head *h, int segmented, int x, int y, float rs, float *weight)
@@ -502,6 +547,7 @@ static float hair_reach(const hd_head *h, int segmented, int x, int y, float rs,
     if (reach - from > 1e-3f) *weight = 1.0f - hd_field_smoothstep((rs - from) / (reach - from));
     return reach;
 }
+
 
 /* Whether pixel i of the features (N pixels a plane) is the skin of medians med, deviations mad. */
 static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT], const float mad[NFEAT])
@@ -696,7 +742,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     if (!hd_face_frame_of(f, &h->frame) || !(f->scale > 0)) return HD_OK; /* no frame: the face alone */
     hd_status st = guard_of(d, &f->mask, source, guard, &h->g);
     if (st != HD_OK) return st;
-    const int W = photo->width, H = photo->height;
+    const int W = photo->width, H = photo->height, torso_on = body != HD_HEAD_BODY_NONE && f->person.data;
     const size_t P = (size_t)W * H;
     h->W = W, h->H = H;
     /* the window: the proxy's reach, from a coarse scan of the photo; the head's own (box 0) and,
@@ -706,9 +752,12 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     for (int y = 0; y < H; y += stride)
         for (int x = 0; x < W; x += stride) {
             float n[3], rs, rn, torso = 0.0f;
-            proxy_at(f, x, y, n, &rs, &rn, body && f->person.data ? &torso : NULL);
+            proxy_at(f, x, y, n, &rs, &rn, torso_on ? &torso : NULL);
             const int head = rs <= (f->person.data ? HAIR_REACH_PERSON : SKIN_REACH_SKULL) || rn <= SKIN_REACH_NECK;
-            const int in[2] = {head, head || (torso > 0 && -hd_face_height(&h->frame, x, y) > BODY_FROM)};
+            const float depth = -hd_face_height(&h->frame, x, y);
+            const int near = body == HD_HEAD_BODY_ALL ||
+                             (depth < CHEST_TO && fabsf(hd_face_side(&h->frame, x, y)) < CHEST_SIDE_TO);
+            const int in[2] = {head, head || (torso > 0 && depth > BODY_FROM && near)};
             for (int k = 0; k < 2; k++)
                 if (in[k]) {
                     int *b = box[k];
@@ -728,12 +777,12 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     h->normal = hd_malloc(3 * N * sizeof(float)), h->proxy = hd_malloc(3 * N * sizeof(float));
     h->mesh = hd_malloc(N * sizeof(float)), h->skin = hd_malloc(N * sizeof(float)), h->hair = hd_malloc(N * sizeof(float));
     h->bg = hd_malloc(N * sizeof(float)), h->body = hd_calloc(N, sizeof(float)), h->zone = hd_calloc(N, sizeof(float));
-    h->wb = body && f->person.data ? hd_calloc(N, sizeof(float)) : NULL;
+    h->wb = torso_on && body == HD_HEAD_BODY_ALL ? hd_calloc(N, sizeof(float)) : NULL;
     float *rho = hd_malloc(2 * N * sizeof(float)), *cover = hd_malloc(P * sizeof(float));
     float *nblend = hd_malloc(P * sizeof(float));
     hd_image nw = {0}, cov = {0};
     st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && h->body && h->zone &&
-                 (h->wb || !body || !f->person.data) && rho && cover && nblend
+                 (h->wb || !torso_on || body != HD_HEAD_BODY_ALL) && rho && cover && nblend
              ? HD_OK
              : HD_ERR_NOMEM;
     /* the model's normals in the photo, extended past the mesh's edge */
@@ -751,7 +800,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             float n[3], torso = 0.0f;
-            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1], body && f->person.data ? &torso : NULL);
+            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1], torso_on ? &torso : NULL);
             /* the body: the person (the network's map, carried on down below its window) on the
              * torso, its soft edge ramped as the outline's (PERSON_LEAST to PERSON_SURE) */
             const float low = hd_field_smoothstep((-hd_face_height(&h->frame, x + x0, y + y0) - BODY_FROM) /
@@ -770,7 +819,9 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
         }
     if (st == HD_OK)
         st = head_masks(h, f, photo, cover, rho, box[0][0], box[0][1], box[0][2] - box[0][0] + 1, box[0][3] - box[0][1] + 1);
-    if (st == HD_OK && body && f->person.data) st = body_outline(h, f, photo);
+    if (st == HD_OK && torso_on) st = body_outline(h, f, photo);
+    if (st == HD_OK && torso_on) st = neck_reach(h, f);
+    for (size_t i = 0; st == HD_OK && torso_on && body == HD_HEAD_BODY_NEAR && i < N; i++) h->body[i] *= h->neck[i];
     /* hair over the mesh above the brows (a fringe) is hair, not the face's skin */
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
@@ -841,7 +892,9 @@ hd_status hd_head_weight(hd_head *h, float *weight)
              * skin, clothes and hair alike, whatever the colour test said */
             const float b = fmaxf(0.0f, fminf(h->body[i], 1.0f - h->ws[i] - h->wh[i]));
             h->ws[i] += b;
-            if (h->wb) h->wb[i] = b;
+            /* the brightness kept is the head's and the body's near the neck, as with the background
+             * kept (HD_HEAD_BODY_NEAR), so the head is the same picture either way */
+            if (h->wb) h->wb[i] = b * (1 - h->neck[i]);
             /* beyond the face, a change too small to see is none (the masks' blur reaches past
              * the person by a few pixels at 1e-4) */
             if (!(weight[p] > 0) && h->ws[i] + h->wh[i] < HEAD_LEAST) {
