@@ -4,7 +4,10 @@
  * estimated light's change between frames (L2 over the 9 coefficients) and the change of the
  * relighting's gain out / in over the face's box between frames, with the known shift undone (the
  * input's noise divided out). On the shaking clip, smoothing the decomposition must lower both.
- * Without smoothing, a frame is relit (and delit) to the same pixels as hd_relight_photo. Then the clip
+ * Without smoothing, a frame is relit (and delit) to the same pixels as hd_relight_photo. With the
+ * background relit, a frame whose face is lost (painted over), or whose face's person is not found
+ * (a grey crop), holds the wall's change of the frame before, and past the hold (a second) the
+ * people map fades out, the wall's change staying. Then the clip
  * formats: a folder of frames in and out (every frame written, same size), and, when the build
  * has FFmpeg, a video file written and read back (frame count, frame rate, pixels within coding
  * loss) and relit video to video with its audio stream copied packet for packet. */
@@ -354,6 +357,217 @@ static void same_as_photo(hd_model *model, hd_aligner *aligner, const hd_image *
     CHECK(hd_model_set_background(model, HD_BACKGROUND_KEEP) == HD_OK);
 }
 
+/* The face of frame img painted over with a flat colour (the astronaut's head, hairline to neck):
+ * the detector finds no face there, as when it misses one for a frame. */
+static void paint_face(hd_image *img)
+{
+    const float colour[3] = {0.47f, 0.43f, 0.39f};
+    for (int c = 0; c < 3; c++)
+        for (int y = 20; y < 260; y++)
+            for (int x = 140; x < 310; x++) img->data[((size_t)c * img->height + y) * img->width + x] = colour[c];
+}
+
+/* The wall's change per channel at the top-left 20 x 20 corner (the flag behind the astronaut):
+ * the mean of log(out / in) over its unclipped pixels, and the largest distance of a pixel's own
+ * from ref's (ref NULL: from this mean). */
+static void corner_change(const hd_image *out, const hd_image *in, const double *ref, double mean[3], double *spread)
+{
+    const size_t P = (size_t)in->width * in->height;
+    double g[20 * 20][3];
+    int n = 0;
+    for (int y = 0; y < 20; y++)
+        for (int x = 0; x < 20; x++) {
+            const size_t p = (size_t)y * in->width + x;
+            int ok = 1;
+            for (int c = 0; c < 3; c++) ok &= out->data[c * P + p] < 0.999f && in->data[c * P + p] > 0.02f;
+            if (!ok) continue;
+            for (int c = 0; c < 3; c++) g[n][c] = log((double)out->data[c * P + p] / in->data[c * P + p]);
+            n++;
+        }
+    for (int c = 0; c < 3; c++) {
+        mean[c] = 0.0;
+        for (int i = 0; i < n; i++) mean[c] += g[i][c] / (n ? n : 1);
+    }
+    *spread = n < 100 ? INFINITY : 0.0; /* most of the corner must be unclipped to be measured */
+    for (int i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) *spread = fmax(*spread, fabs(g[i][c] - (ref ? ref[c] : mean[c])));
+}
+
+/* A frame whose face is found but not its person: a tight grey crop of the astronaut's face under
+ * hard light from one side (its left half at 0.15), on flat dark grey, as Yale B's photos are (the
+ * segmentation sees no person there; a photo with the background relit is refused). */
+static void grey_crop(const hd_image *photo, hd_image *img)
+{
+    const int W = photo->width, H = photo->height;
+    const size_t P = (size_t)W * H;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const size_t p = (size_t)y * W + x;
+            float v = 60.0f / 255.0f;
+            if (x >= 175 && x < 275 && y >= 60 && y < 200) {
+                v = 0.3f * photo->data[p] + 0.6f * photo->data[P + p] + 0.1f * photo->data[2 * P + p];
+                if (x < 225) v *= 0.15f;
+            }
+            for (int c = 0; c < 3; c++) img->data[c * P + p] = v;
+        }
+}
+
+/* Pixels of out equal to in in every channel. */
+static long unchanged(const hd_image *out, const hd_image *in)
+{
+    const size_t P = (size_t)in->width * in->height;
+    long n = 0;
+    for (size_t p = 0; p < P; p++)
+        n += out->data[p] == in->data[p] && out->data[P + p] == in->data[P + p] && out->data[2 * P + p] == in->data[2 * P + p];
+    return n;
+}
+
+/* A face lost for a frame (painted over in the middle frame of five, a still clip) with the
+ * background relit: that frame's wall takes the change of the frame before it (the same log
+ * ratio: its corner's per-pixel gain equal to the frame before's within float rounding, and near
+ * the frame after's, which has its own), not the input's light; with the background kept that
+ * frame is the input bit for bit. A face found without its person (grey_crop) does not stop the
+ * clip: it is relit and the wall held. Then a longer loss at 2 frames per second (a hold of 2 frames):
+ * the people map held for 2 frames (the person's pixels unchanged), fading out over 2 more, then
+ * the wall's change alone (on the whole frame), until a face comes back. */
+static void wall_held(hd_model *model, hd_aligner *aligner)
+{
+    float light[HD_SH_COEFFS];
+    hd_light_preset(3, light);
+    hd_image clip[5];
+    for (int t = 0; t < 5; t++) {
+        const size_t n = (size_t)frames[t].width * frames[t].height * 3;
+        CHECK(hd_image_alloc(&clip[t], frames[t].width, frames[t].height, 3) == HD_OK);
+        if (!clip[t].data) return;
+        memcpy(clip[t].data, frames[t].data, n * sizeof(float));
+        if (t == 2) paint_face(&clip[t]);
+    }
+    for (int relit = 1; relit >= 0; relit--) {
+        CHECK(hd_model_set_background(model, relit ? HD_BACKGROUND_RELIGHT : HD_BACKGROUND_KEEP) == HD_OK);
+        hd_video_relighter *v = NULL;
+        CHECK(hd_video_relighter_new(model, aligner, light, HD_BRIGHTNESS_KEEP, NULL, &v) == HD_OK);
+        if (!v) return;
+        hd_video_relighter_set_fps(v, 30.0);
+        double g[5][3] = {{0}}, spread[5] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
+        for (int t = 0; t < 5; t++) {
+            hd_image out = {0};
+            hd_video_frame_info info;
+            hd_status st = hd_video_relight_frame(v, &clip[t], &out, &info);
+            if (st != HD_OK) fprintf(stderr, "frame %d: %s\n", t, hd_error());
+            CHECK(st == HD_OK);
+            if (st != HD_OK) break;
+            CHECK(info.faces == (t == 2 ? 0 : 1));
+            const hd_video_wall want = !relit ? HD_VIDEO_WALL_KEPT : t == 2 ? HD_VIDEO_WALL_HELD : HD_VIDEO_WALL_OWN;
+            CHECK(info.wall == want);
+            corner_change(&out, &clip[t], t == 2 ? g[1] : NULL, g[t], &spread[t]);
+            if (!relit) {
+                const long same = unchanged(&out, &clip[t]), all = (long)clip[t].width * clip[t].height;
+                if (t == 2) CHECK(same == all);
+                CHECK(fabs(g[t][0]) + fabs(g[t][1]) + fabs(g[t][2]) == 0.0);
+            }
+            hd_image_free(&out);
+        }
+        fprintf(stderr, "face lost in frame 2 of 5, background %s: the corner's log change per channel, frames 1, 2, 3: "
+                "(%.5f %.5f %.5f), (%.5f %.5f %.5f), (%.5f %.5f %.5f); frame 2's pixels from frame 1's mean: %.2g\n",
+                relit ? "relit" : "kept", g[1][0], g[1][1], g[1][2], g[2][0], g[2][1], g[2][2], g[3][0], g[3][1], g[3][2],
+                spread[2]);
+        if (relit) {
+            CHECK(fabs(g[1][0]) + fabs(g[1][1]) + fabs(g[1][2]) > 0.1); /* the wall does change */
+            CHECK(spread[2] < 1e-4);                                    /* frame 2: frame 1's change, pixel by pixel */
+            for (int c = 0; c < 3; c++) CHECK(fabs(g[2][c] - g[3][c]) < 0.02); /* and near frame 3's own */
+        }
+        hd_video_relighter_free(v);
+    }
+
+    /* A face whose person is not found (frame 1 of 3): the clip goes on (it used to stop there), the
+     * face is relit (without the body) and the wall holds frame 0's change. */
+    CHECK(hd_model_set_background(model, HD_BACKGROUND_RELIGHT) == HD_OK);
+    hd_image crop = {0};
+    CHECK(hd_image_alloc(&crop, frames[0].width, frames[0].height, 3) == HD_OK);
+    hd_video_relighter *v = NULL;
+    CHECK(hd_video_relighter_new(model, aligner, light, HD_BRIGHTNESS_KEEP, NULL, &v) == HD_OK);
+    if (v && crop.data) {
+        grey_crop(&frames[0], &crop);
+        double g0[3] = {0}, g[3] = {0}, spread0, spread = INFINITY;
+        long same = -1;
+        for (int t = 0; t < 3; t++) {
+            const hd_image *in = t == 1 ? &crop : &frames[t];
+            hd_image out = {0};
+            hd_video_frame_info info;
+            hd_status st = hd_video_relight_frame(v, in, &out, &info);
+            if (st != HD_OK) fprintf(stderr, "frame %d: %s\n", t, hd_error());
+            CHECK(st == HD_OK && info.faces == 1 && info.wall == (t == 1 ? HD_VIDEO_WALL_HELD : HD_VIDEO_WALL_OWN));
+            if (st != HD_OK) continue;
+            if (t == 0) corner_change(&out, in, NULL, g0, &spread0);
+            if (t == 1) { /* the wall as frame 0's; the face itself relit: its box's pixels unchanged */
+                corner_change(&out, in, g0, g, &spread);
+                same = 0;
+                for (int y = 60; y < 200; y++)
+                    for (int x = 175; x < 275; x++) {
+                        const size_t p = (size_t)y * in->width + x;
+                        same += out.data[p] == in->data[p];
+                    }
+            }
+            hd_image_free(&out);
+        }
+        fprintf(stderr, "a face without its person in frame 1 of 3: the corner's log change %.5f (frame 0's %.5f, "
+                "largest distance %.2g); %ld of its box's 14000 pixels unchanged\n", g[0], g0[0], spread, same);
+        CHECK(spread < 1e-4);
+        CHECK(same >= 0 && same < 7000);
+    }
+    hd_video_relighter_free(v);
+    hd_image_free(&crop);
+
+    /* Beyond the hold: a face in frame 0, then 5 without, at 2 frames per second (hold 2 frames). */
+    v = NULL;
+    CHECK(hd_video_relighter_new(model, aligner, light, HD_BRIGHTNESS_KEEP, NULL, &v) == HD_OK);
+    if (v) {
+        hd_video_relighter_set_fps(v, 2.0);
+        double g0[3] = {0}, g[3], spread, person[6] = {0};
+        long same[6] = {0};
+        const size_t P = (size_t)clip[2].width * clip[2].height;
+        unsigned char *held = hd_calloc(P, 1); /* the person as held: the pixels frame 1 left unchanged */
+        CHECK(held != NULL);
+        for (int t = 0; t < 6; t++) {
+            hd_image *in = t == 0 ? &frames[0] : &clip[2];
+            hd_image out = {0};
+            hd_video_frame_info info;
+            CHECK(hd_video_relight_frame(v, in, &out, &info) == HD_OK);
+            CHECK(info.wall == (t == 0 ? HD_VIDEO_WALL_OWN : HD_VIDEO_WALL_HELD));
+            if (t == 0) corner_change(&out, in, NULL, g0, &spread);
+            else {
+                corner_change(&out, in, g0, g, &spread);
+                CHECK(spread < 1e-4);
+            }
+            same[t] = unchanged(&out, in);
+            /* the mean log change over the held person's unclipped pixels (the wall's alone: g0) */
+            long m = 0;
+            for (size_t p = 0; held && p < P; p++) {
+                if (t == 1) held[p] = out.data[p] == in->data[p] && out.data[P + p] == in->data[P + p] &&
+                                      out.data[2 * P + p] == in->data[2 * P + p] && in->data[p] > 0.05f;
+                if (!held[p] || out.data[p] >= 0.999f) continue;
+                person[t] += log((double)out.data[p] / in->data[p]);
+                m++;
+            }
+            person[t] /= m ? (double)m : 1.0;
+            hd_image_free(&out);
+        }
+        fprintf(stderr, "face lost for 5 frames at 2 fps: pixels unchanged %ld (face), then %ld %ld (held), %ld (half "
+                "faded), %ld %ld (the wall's change alone); the held person's log change %.5f %.5f %.5f %.5f %.5f "
+                "(the wall's %.5f)\n", same[0], same[1], same[2], same[3], same[4], same[5], person[1], person[2],
+                person[3], person[4], person[5], g0[0]);
+        CHECK(same[1] == same[2] && same[1] > 10000); /* the person (held people map) kept */
+        CHECK(person[1] == 0.0 && person[2] == 0.0);
+        CHECK(fabs(person[3] - 0.5 * g0[0]) < 0.01); /* half faded */
+        CHECK(fabs(person[4] - g0[0]) < 1e-4 && fabs(person[5] - g0[0]) < 1e-4); /* the wall's change alone */
+        CHECK(same[4] == same[5] && same[4] < same[1] / 10);
+        free(held);
+        hd_video_relighter_free(v);
+    }
+    CHECK(hd_model_set_background(model, HD_BACKGROUND_KEEP) == HD_OK);
+    for (int t = 0; t < 5; t++) hd_image_free(&clip[t]);
+}
+
 int main(void)
 {
     source_dir = test_source_dir();
@@ -393,6 +607,7 @@ int main(void)
     fprintf(stderr, "still clip, landmarks smoothed too: face region gain %.5f -> %.5f (x%.2f)\n", face_smooth, face_lm,
             face_lm / face_smooth);
     CHECK(face_lm < face_smooth);
+    wall_held(model, aligner);
     make_clip(&photo, 1);
 
     test_folder(model, aligner);

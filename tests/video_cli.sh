@@ -3,7 +3,7 @@
 # (--fps; needs no FFmpeg) gives a folder of as many relit frames; with FFmpeg in the build, a
 # folder to a video file, video to video (delight), transfer with a reference photo; a build without
 # FFmpeg says how to get it and the test skips (exit 77): the video files were not tested. The
-# background relit changes every frame. Bad --fps and --background values and a clip with --preset all are usage errors; a
+# background relit changes every frame, and a frame without a face holds the wall's change. Bad --fps and --background values and a clip with --preset all are usage errors; a
 # broken video file is reported and leaves no output.
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -25,6 +25,16 @@ expect_saying 0 "3 frames (3 with a face)" "$HDNET" relight frames --fps 10 --pr
 for i in 0 1 2; do
     cmp -s "relit/frame00000$i.png" "wall/frame00000$i.png" && fail "frame $i: --background relight changed nothing"
 done
+# a frame without a face between two with one (black, so its pixels stay; the wall's held change
+# itself: tests/test_video.c): with the background relit it takes the wall's change of the frame
+# before and says so; with the background kept the summary is as before
+mkdir -p gap
+cp "$photo" gap/f0.png
+cp "$photo" gap/f2.png
+printf 'Pf\n512 512\n-1.0\n' >gap/f1.pfm
+head -c $((512 * 512 * 4)) /dev/zero >>gap/f1.pfm
+expect_saying 0 "3 frames (2 with a face, 1 with the wall held)" "$HDNET" relight gap --fps 10 --preset 3 --background relight -o gapwall
+expect_saying 0 "3 frames (2 with a face)," "$HDNET" relight gap --fps 10 --preset 3 -o gapkeep
 expect_saying 2 "keep or relight" "$HDNET" delight frames --fps 10 --background wall -o bad
 expect_saying 2 "fps" "$HDNET" relight frames --fps -1 --preset 3 -o bad
 expect_saying 2 "fps" "$HDNET" relight frames --fps 5000 --preset 3 -o bad

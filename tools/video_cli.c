@@ -56,8 +56,10 @@ int cli_video(const char *cmd, const char *in, const char *out, const char *mode
         rc = cli_report(cmd);
         goto done;
     }
-    printf("%s -> %s: %ld frames (%ld with a face), light change %.4f per frame%s, %.1f s (%.2f frames/s)\n", in, out,
-           report.frames, report.frames_with_face, report.light_change, opt.smooth ? " (smoothed)" : "",
+    char held[64] = "";
+    if (report.frames_wall_held > 0) snprintf(held, sizeof held, ", %ld with the wall held", report.frames_wall_held);
+    printf("%s -> %s: %ld frames (%ld with a face%s), light change %.4f per frame%s, %.1f s (%.2f frames/s)\n", in,
+           out, report.frames, report.frames_with_face, held, report.light_change, opt.smooth ? " (smoothed)" : "",
            report.seconds, report.seconds > 0 ? (double)report.frames / report.seconds : 0.0);
     rc = CLI_EXIT_OK;
 done:

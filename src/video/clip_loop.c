@@ -36,6 +36,7 @@ hd_status hd_video_relight_clip(hd_video_relighter *v, const char *in, const cha
         if ((st = hd_clip_write(w, &relit)) != HD_OK) break;
         report->frames++;
         if (info.faces > 0) report->frames_with_face++;
+        if (info.wall == HD_VIDEO_WALL_HELD) report->frames_wall_held++;
         if (info.has_light && have_prev) {
             double s = 0.0;
             for (int k = 0; k < HD_SH_COEFFS; k++) s += (double)(info.light[k] - prev[k]) * (info.light[k] - prev[k]);

@@ -6,7 +6,8 @@
  * texel stays on the same point of the face). The frame is then changed by the photo's relighting
  * rule on that decomposition (hd_apply_face, src/apply/apply.c), as hdnet relight changes a photo,
  * its background too when the model says so (HD_BACKGROUND_RELIGHT: a wall under the first face's
- * light change, the body relit with the head). */
+ * light change, the body relit with the head). A frame that cannot give the wall its change (no face,
+ * or a face whose person the segmentation did not find) takes the last one that could (wall_hold). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,6 +20,11 @@
 #define MAX_TRACKS 16
 #define NLM (HD_FACE_LANDMARKS * 3)
 #define MATCH_DISTANCE 0.5f /* a face continues a track when its centre is within this many widths */
+/* How long a frame without the wall's own change keeps the last one over the last people map: a
+ * detector's miss or a blurred face lasts a frame or a few, a hand or a turn of the head under a
+ * second, and in a second the person has moved little; beyond it the people map fades out over as
+ * long again and the wall's change stays alone (docs/video.md, "Limits"). */
+#define WALL_HOLD_SECONDS 1.0
 
 typedef struct track {
     int used, seen;
@@ -28,6 +34,16 @@ typedef struct track {
     hd_ema light, shading, normal;
     int maps;                   /* shading / normal filters are set up (their size is the model's) */
 } track;
+
+/* The wall's change of the last frame that had its own (the background relit), for the frames
+ * after it that have none. */
+typedef struct wall_hold {
+    int width, height;  /* the frame's; 0: nothing held (no face with its person seen yet) */
+    long age;           /* frames since that frame */
+    float log_ratio[3]; /* hd_backdrop_log_ratio of its first face's light */
+    double offset;      /* its brightness offset (log k) */
+    float *people;      /* (H, W) its people map */
+} wall_hold;
 
 struct hd_video_relighter {
     hd_model *model;
@@ -39,6 +55,7 @@ struct hd_video_relighter {
     float dt;
     track tracks[MAX_TRACKS];
     float lm[NLM];
+    wall_hold wall;
 };
 
 void hd_video_options_default(hd_video_options *o)
@@ -92,6 +109,7 @@ void hd_video_relighter_free(hd_video_relighter *v)
 {
     if (!v) return;
     for (int i = 0; i < MAX_TRACKS; i++) track_free(&v->tracks[i]);
+    free(v->wall.people);
     free(v);
 }
 
@@ -171,6 +189,56 @@ static hd_status smooth_landmarks(hd_video_relighter *v, track *t, const hd_imag
     return HD_OK;
 }
 
+/* Keeps this frame's wall change (its log ratio, offset and W x H people map) for the frames after it. */
+static hd_status wall_keep(wall_hold *w, const float log_ratio[3], double offset, const float *people, int W, int H)
+{
+    const size_t P = (size_t)W * H;
+    if (w->width != W || w->height != H) {
+        free(w->people);
+        w->width = w->height = 0;
+        if (!(w->people = hd_malloc((P ? P : 1) * sizeof(float)))) return HD_ERR_NOMEM;
+        w->width = W, w->height = H;
+    }
+    memcpy(w->people, people, P * sizeof(float));
+    memcpy(w->log_ratio, log_ratio, sizeof w->log_ratio);
+    w->offset = offset;
+    w->age = 0;
+    return HD_OK;
+}
+
+/* The wall of a frame that has no change of its own: out takes the held change over
+ * max(people, fade * held people) (people: what this frame's faces hold off the wall, 0 elsewhere;
+ * changed in place), fade 1 for the first `hold` frames after the held one, then falling linearly
+ * to 0 over as many (the wall's change alone from then on). 0 (out untouched) when nothing of this
+ * frame's size is held. */
+static int wall_from_hold(wall_hold *w, long hold, float *people, hd_image *out)
+{
+    if (!w->people || w->width != out->width || w->height != out->height) return 0;
+    if (w->age < 2 * hold) w->age++;
+    const double fade = w->age <= hold ? 1.0 : (double)(2 * hold - w->age) / (double)hold;
+    const size_t P = (size_t)out->width * out->height;
+    if (fade > 0.0)
+        for (size_t i = 0; i < P; i++) {
+            const float h = (float)(fade * w->people[i]);
+            if (h > people[i]) people[i] = h;
+        }
+    hd_backdrop_apply(w->log_ratio, w->offset, people, out);
+    return 1;
+}
+
+/* Face f was relit without its person (the segmentation found none): its weights (over the frame
+ * as given) join people, so that a held wall's change does not land on it too. weight: scratch,
+ * allocated on first use. */
+static hd_status face_off_wall(const hd_aligned_face *f, const hd_image *frame, float **weight, float *people)
+{
+    const size_t P = (size_t)frame->width * frame->height;
+    if (!*weight && !(*weight = hd_malloc((P ? P : 1) * sizeof(float)))) return HD_ERR_NOMEM;
+    hd_status st = hd_photo_face_weight(f, frame, *weight);
+    for (size_t i = 0; st == HD_OK && i < P; i++)
+        if ((*weight)[i] > people[i]) people[i] = (*weight)[i];
+    return st;
+}
+
 hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, hd_image *out,
                                  hd_video_frame_info *info)
 {
@@ -193,6 +261,8 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
     /* the background relit as a wall (the model's setting), from the first face's light */
     hd_face_backdrop backdrop = {0}, first = {0};
     const int wall = hd_model_background(v->model) == HD_BACKGROUND_RELIGHT;
+    int lost = 0;         /* faces relit without their person (the head alone; the frame's wall held) */
+    float *weight = NULL; /* face_off_wall's scratch */
     if (st == HD_OK && wall && !(backdrop.people = hd_calloc((size_t)frame->width * frame->height, sizeof(float))))
         st = HD_ERR_NOMEM;
     for (int k = 0; k < n && st == HD_OK; k++) {
@@ -209,17 +279,32 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
             info->has_light = 1;
             memcpy(info->light, d.light, sizeof info->light);
         }
-        if (st == HD_OK) /* the photo's rule on the (smoothed) decomposition */
+        /* the photo's rule on the (smoothed) decomposition; a face whose person was not found is
+         * relit without the body (a photo would fail: hd_apply_face's backdrop needs the person),
+         * and the frame's wall is held from the last frame that had it */
+        const int person = wall && f->person.data;
+        if (st == HD_OK)
             st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness,
-                               HD_SOURCE_FIT, out, wall ? &backdrop : NULL);
+                               HD_SOURCE_FIT, out, person ? &backdrop : NULL);
+        if (st == HD_OK && wall && !person) {
+            lost++;
+            st = face_off_wall(f, frame, &weight, backdrop.people);
+        }
         hd_decomposition_free(&d);
         if (st == HD_OK && done++ == 0) first = backdrop;
     }
-    if (st == HD_OK && wall && done > 0) {
+    hd_video_wall kind = HD_VIDEO_WALL_KEPT;
+    if (st == HD_OK && wall && done > 0 && lost == 0) {
         float lr[3];
         hd_backdrop_log_ratio(first.source, v->delight ? NULL : &target, 0.0f, lr);
         hd_backdrop_apply(lr, first.offset, backdrop.people, out);
+        st = wall_keep(&v->wall, lr, first.offset, backdrop.people, frame->width, frame->height);
+        kind = HD_VIDEO_WALL_OWN;
+    } else if (st == HD_OK && wall) {
+        const long hold = lround(WALL_HOLD_SECONDS / v->dt);
+        if (wall_from_hold(&v->wall, hold > 1 ? hold : 1, backdrop.people, out)) kind = HD_VIDEO_WALL_HELD;
     }
+    free(weight);
     free(backdrop.people);
     /* Tracks not seen in this frame end: a face that comes back starts afresh. */
     for (int i = 0; i < MAX_TRACKS; i++)
@@ -229,6 +314,6 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
         hd_image_free(out);
         return st;
     }
-    if (info) info->faces = done;
+    if (info) info->faces = done, info->wall = kind;
     return HD_OK;
 }

@@ -61,9 +61,18 @@ typedef struct hd_video_options {
 } hd_video_options;
 void hd_video_options_default(hd_video_options *o);
 
+/* What a frame's background took with the background relit (HD_BACKGROUND_RELIGHT). */
+typedef enum hd_video_wall {
+    HD_VIDEO_WALL_KEPT = 0, /* none: the background kept (the model's setting, or no earlier frame had a
+                             * change to hold, or it was held long enough: docs/video.md, "Limits") */
+    HD_VIDEO_WALL_OWN,      /* the change of this frame's first face's light */
+    HD_VIDEO_WALL_HELD      /* the last such frame's change (no face, or a face without its person) */
+} hd_video_wall;
+
 /* What one frame gave. */
 typedef struct hd_video_frame_info {
     int faces;                      /* faces relit in this frame */
+    hd_video_wall wall;             /* its background */
     int has_light;                  /* 1 when light[] holds the first face's (smoothed) light */
     float light[HD_SH_COEFFS];
 } hd_video_frame_info;
@@ -75,7 +84,10 @@ hd_status hd_video_relighter_new(hd_model *model, hd_aligner *aligner, const flo
                                  const hd_video_options *options, hd_video_relighter **out);
 /* The clip's frame rate (default 30): the filters' time step. */
 void hd_video_relighter_set_fps(hd_video_relighter *v, double fps);
-/* Relights one frame (3 channels) into *out (allocated; the frame itself where no face is found). */
+/* Relights one frame (3 channels) into *out (allocated; the frame itself where no face is found,
+ * but for a held wall: with the background relit, a frame without a face, or with a face whose
+ * person the segmentation does not find, takes the wall's change of the last frame that had one,
+ * over that frame's people for up to a second, then fading them out over another: docs/video.md). */
 hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, hd_image *out,
                                  hd_video_frame_info *info);
 void hd_video_relighter_free(hd_video_relighter *v);
@@ -83,6 +95,7 @@ void hd_video_relighter_free(hd_video_relighter *v);
 /* What a whole clip gave. */
 typedef struct hd_video_report {
     long frames, frames_with_face;
+    long frames_wall_held; /* frames whose wall took an earlier frame's change (HD_VIDEO_WALL_HELD) */
     double light_change;  /* mean over consecutive frames with a face of |light_t - light_t-1| (L2
                            * over the 9 coefficients of the first face): the light's flicker */
     double seconds;
