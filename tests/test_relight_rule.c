@@ -110,6 +110,26 @@ static void test_metrics(void)
     free(ch);
     CHECK(seam_step > 10.0);
     CHECK(seam_fade < 1.0);
+    /* a smooth change that crosses zero (darker on the left, lighter on the right, fading to 0 at
+     * the disc's edge): the line where it rounds to the input is inside the region, not a seam
+     * (1.11 before the region was closed, 0.74 after) */
+    hd_image in8 = copy(&in), cross = copy(&in); /* 8-bit pictures: the change rounds to none near zero */
+    for (size_t i = 0; i < 3 * P; i++) in8.data[i] = roundf(in.data[i] * 255.0f) / 255.0f;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                const size_t i = c * P + (size_t)y * W + x;
+                float dx = x + 0.5f - 48, dy = y + 0.5f - 48, r2 = (dx * dx + dy * dy) / (30.0f * 30.0f);
+                const float ramp = fminf(1.0f, fmaxf(-1.0f, (x - 48) / 6.0f)); /* 0 on the column x = 48 */
+                const float change = in_disc(x, y, 48, 48, 30) ? 0.05f * ramp * (1 - r2) * (1 - r2) : 0.0f;
+                cross.data[i] = roundf((in8.data[i] + change) * 255.0f) / 255.0f;
+            }
+    CHECK(hd_photo_changed(&in8, &cross, &ch, &n) == HD_OK);
+    double seam_cross = hd_photo_seam(&in8, &cross, ch);
+    free(ch);
+    printf("seam: a smooth change crossing zero %.3f\n", seam_cross);
+    CHECK(seam_cross < 1.0);
+    hd_image_free(&cross), hd_image_free(&in8);
     /* the same step where the photo has an edge of its own (a lighter disc: the person's outline
      * against the background, which keeps the photo): no seam */
     hd_image disc = copy(&in), disc_step = copy(&in);

@@ -19,6 +19,8 @@
 /* a step of the photo's own log luminance this large between two pixels is an edge of the photo
  * (the person's outline), where the change may stop */
 #define SEAM_PHOTO_EDGE 0.1
+/* the changed region's gaps this wide (pixels) or less are closed before its edge is taken */
+#define SEAM_CLOSE 5
 
 /* Channel c of pixel p as a picture shows it: clamped to [0, 1] (NaN as 0). */
 static double px(const hd_image *im, int c, size_t p)
@@ -121,12 +123,39 @@ double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigne
     return (eye / ne) / (face / nf);
 }
 
-double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed)
+/* One pass of the max (grow) or min (shrink) of the W x H 0 / 1 mask m over the 2 r + 1 pixels
+ * centred on each, along x or along y, into out; pixels beyond the picture count for nothing. */
+static void morph_pass(const unsigned char *m, int W, int H, int along_x, int grow, int r, unsigned char *out)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int v = grow ? 0 : 1;
+            for (int k = -r; k <= r; k++) {
+                const int xx = along_x ? x + k : x, yy = along_x ? y : y + k;
+                if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+                const int u = m[(size_t)yy * W + xx];
+                v = grow ? (v | u) : (v & u);
+            }
+            out[(size_t)y * W + x] = (unsigned char)v;
+        }
+}
+
+double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed_pixels)
 {
     const int W = input->width, H = input->height;
     const size_t P = (size_t)W * (size_t)H;
     float *d = hd_malloc((P ? P : 1) * sizeof(float));
-    if (!d) return NAN;
+    unsigned char *changed = hd_malloc(P ? P : 1), *tmp = hd_malloc(P ? P : 1);
+    if (!d || !changed || !tmp) {
+        free(d), free(changed), free(tmp);
+        return NAN;
+    }
+    /* the region: the changed pixels closed by a SEAM_CLOSE-pixel square, so the line where a smooth
+     * change crosses zero (its pixels round to the input's) is inside it, not its edge */
+    morph_pass(changed_pixels, W, H, 1, 1, SEAM_CLOSE / 2, tmp);
+    morph_pass(tmp, W, H, 0, 1, SEAM_CLOSE / 2, changed);
+    morph_pass(changed, W, H, 1, 0, SEAM_CLOSE / 2, tmp);
+    morph_pass(tmp, W, H, 0, 0, SEAM_CLOSE / 2, changed);
     for (size_t p = 0; p < P; p++) d[p] = (float)(lum_at(relit, p) - lum_at(input, p));
     double gb = 0, gi = 0;
     long nb = 0, ni = 0;
@@ -150,7 +179,7 @@ double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigne
             if (border) gb += g, nb++;
             else gi += g, ni++;
         }
-    free(d);
+    free(d), free(changed), free(tmp);
     if (!nb) return 1.0;
     gb /= nb;
     gi = ni ? gi / ni : 0.0;

@@ -21,10 +21,11 @@ double hd_photo_detail(const hd_image *input, const hd_image *relit, const unsig
 double hd_photo_glow(const hd_image *input, const hd_image *relit, const unsigned char *changed,
                      const float pupils[2][2]);
 /* The mean gradient magnitude (forward differences) of the luminance change relit - input on the
- * border of the changed region (pixels with a 4-neighbour on the other side, no edge of the
- * input's own between them: a log-luminance step above 0.1 is the person's outline, where the
- * change may stop) over the same inside it: about 1 or less when there is no seam. NAN only for
- * want of memory. */
+ * border of the changed region (the changed pixels closed by a 5 x 5 square, so that the line where
+ * a smooth change crosses zero, whose pixels round to the input's, is no border; pixels with a
+ * 4-neighbour on the other side, no edge of the input's own between them: a log-luminance step
+ * above 0.1 is the person's outline, where the change may stop) over the same inside it: about 1
+ * or less when there is no seam. NAN only for want of memory. */
 double hd_photo_seam(const hd_image *input, const hd_image *relit, const unsigned char *changed);
 /* Mean absolute difference over the 3 channels of the pixels in `where` (NULL: all). */
 double hd_photo_mae(const hd_image *a, const hd_image *b, const unsigned char *where);
