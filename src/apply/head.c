@@ -22,13 +22,16 @@
  * field (rule.c, warped back) is kept; it hands over to the head's within HEAD_MESH_BAND eye
  * distances outside the mesh's edge. A face aligned without the segmentation (from given
  * landmarks) is told from its background by colour alone.
- * With the body (hd_head_init's body: the background is relit too, backdrop.c) the person below the
- * chin, clothes and all, takes the change on a torso proxy: the network's person, its outline
- * refined to the photo's edges by a guided filter (body_outline), is the body's weight, with no
- * colour test (a white shirt before a pale wall). The head's own masks are computed on the head's
- * window alone, so they, and the head's change, are the same with the body or without; the kept
- * brightness is the head's (hd_head_level), not the clothes'. Without the background relit the
- * body keeps the photo: against a kept wall a relit body would show an outline the photo lacks. */
+ * With the body (hd_head_init's body, HD_HEAD_BODY_ALL: the background is relit too, backdrop.c)
+ * the person below the chin, clothes and all, takes the change on a torso proxy: the network's
+ * person, its outline refined to the photo's edges by a guided filter (body_outline), is the body's
+ * weight, with no colour test (a white shirt before a pale wall). The head's own masks are computed
+ * on the head's window alone, so they, and the head's change, are the same with the body or
+ * without; the kept brightness is the head's and the body's near the neck (hd_head_level), not the
+ * rest of the clothes'. With the background kept (HD_HEAD_BODY_NEAR) only the body near the neck
+ * takes the change, fading out down the chest and toward the shoulders before the person's outline
+ * (neck_reach): the neck's change goes on down a bare chest and a collar instead of ending in a band
+ * where the skin's colour test stops, and no relit shoulder stands against the kept wall. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
