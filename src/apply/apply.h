@@ -129,6 +129,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
  * window (x0, y0, w, h) of the W x H photo. */
 typedef struct hd_head {
     int W, H, x0, y0, w, h;
+    int mx0, my0, mw, mh; /* the head's own window within it (its masks'; the rest is the body's) */
     hd_face_frame frame;
     float g;       /* the rule's guard */
     float *normal; /* 3 planes of w x h: the model's normals near the mesh, the proxy's beyond */
@@ -167,6 +168,9 @@ hd_status hd_head_weight(hd_head *h, float *weight);
 hd_status hd_head_level(const hd_head *h, const float *weight, float **level);
 /* How much photo pixel (x, y) lies in h's body (0 .. 1; 0 outside it or without the body). */
 float hd_head_body_zone(const hd_head *h, int x, int y);
+/* Whether photo pixel (x, y) is the background by the head's own masks (1: its colour test and the
+ * region grown from the window's edge: the wall between curls; 0 outside the head's own window). */
+float hd_head_background(const hd_head *h, int x, int y);
 /* The backdrop's people (backdrop.c): people = max(people, weight, face f's person map) over the
  * W x H photo (weight: the face's and head's weights, as hd_head_weight leaves them; the map's last
  * row carried on down the photo, the body below its window; within head's body zone, the weights

@@ -688,6 +688,7 @@ static hd_status masks(hd_head *h, const hd_aligned_face *f, const hd_image *pho
 static hd_status head_masks(hd_head *h, const hd_aligned_face *f, const hd_image *photo, const float *coverage,
                             const float *rho, int sx0, int sy0, int sw, int sh)
 {
+    h->mx0 = sx0, h->my0 = sy0, h->mw = sw, h->mh = sh;
     if (sx0 == h->x0 && sy0 == h->y0 && sw == h->w && sh == h->h) return masks(h, f, photo, coverage, rho);
     hd_head s = *h;
     s.x0 = sx0, s.y0 = sy0, s.w = sw, s.h = sh;
@@ -929,6 +930,12 @@ float hd_head_body_zone(const hd_head *h, int x, int y)
     if (!h || !h->zone) return 0.0f;
     x -= h->x0, y -= h->y0;
     return x < 0 || y < 0 || x >= h->w || y >= h->h ? 0.0f : h->zone[(size_t)y * h->w + x];
+}
+
+float hd_head_background(const hd_head *h, int x, int y)
+{
+    if (!h || !h->bg || x < h->mx0 || y < h->my0 || x >= h->mx0 + h->mw || y >= h->my0 + h->mh) return 0.0f;
+    return h->bg[(size_t)(y - h->y0) * h->w + (size_t)(x - h->x0)];
 }
 
 float hd_head_blur(const hd_head *h) { return h && h->normal ? HEAD_FIELD_BLUR * h->frame.e : 0.0f; }
