@@ -143,6 +143,7 @@ typedef struct hd_head {
     float *ws, *wh;     /* the skin's and the hair's weights (hd_head_weight) */
     float *wb;          /* the body's share of ws beyond the neck's reach, which the kept brightness leaves out (HD_HEAD_BODY_ALL only; else NULL) */
     float *near;        /* 1 at the skin's edge, falling into the hair */
+    float *share;       /* the person's share of an outline pixel (1 inside it; the head's own window) */
 } hd_head;
 /* What of the person below the chin takes the change (hd_head_init's body, with the face's person
  * segmentation only; head.c): none; the body near the neck, fading out down the chest and toward the
@@ -168,8 +169,9 @@ hd_status hd_head_weight(hd_head *h, float *weight);
 hd_status hd_head_level(const hd_head *h, const float *weight, float **level);
 /* How much photo pixel (x, y) lies in h's body (0 .. 1; 0 outside it or without the body). */
 float hd_head_body_zone(const hd_head *h, int x, int y);
-/* Whether photo pixel (x, y) is the background by the head's own masks (1: its colour test and the
- * region grown from the window's edge: the wall between curls; 0 outside the head's own window). */
+/* How much of photo pixel (x, y) is the background by the head's own masks (1: its colour test and
+ * the region grown from the window's edge, the wall between curls; on the person's outline, a
+ * strand's edge, the background's share of the pixel; 0 outside the head's own window). */
 float hd_head_background(const hd_head *h, int x, int y);
 /* The backdrop's people (backdrop.c): people = max(people, weight, face f's person map) over the
  * W x H photo (weight: the face's and head's weights, as hd_head_weight leaves them; the map's last

@@ -149,7 +149,7 @@ void hd_head_free(hd_head *h)
 {
     if (!h) return;
     free(h->normal), free(h->proxy), free(h->mesh), free(h->skin), free(h->hair), free(h->bg);
-    free(h->body), free(h->zone), free(h->neck), free(h->wb), free(h->ws), free(h->wh), free(h->near);
+    free(h->body), free(h->zone), free(h->neck), free(h->wb), free(h->ws), free(h->wh), free(h->near), free(h->share);
     memset(h, 0, sizeof *h);
 }
 
@@ -675,6 +675,7 @@ static hd_status masks(hd_head *h, const hd_aligned_face *f, const hd_image *pho
         const float fn = 1 - hd_field_smoothstep((rho[2 * i + 1] - 1) / (SKIN_REACH_NECK - 1));
         h->skin[i] *= (fs > fn ? fs : fn) * share[i];
         h->hair[i] *= share[i];
+        if (h->share) h->share[i] = share[i];
     }
     free(rgb), free(feat), free(scratch), free(person), free(share), free(pick), free(own);
     return st;
@@ -694,21 +695,26 @@ static hd_status head_masks(hd_head *h, const hd_aligned_face *f, const hd_image
     s.x0 = sx0, s.y0 = sy0, s.w = sw, s.h = sh;
     const size_t M = (size_t)sw * sh, N = (size_t)h->w * h->h;
     s.bg = hd_malloc(M * sizeof(float)), s.skin = hd_malloc(M * sizeof(float)), s.hair = hd_malloc(M * sizeof(float));
+    s.share = h->share ? hd_malloc(M * sizeof(float)) : NULL;
     float *r = hd_malloc(2 * M * sizeof(float));
-    hd_status st = s.bg && s.skin && s.hair && r ? HD_OK : HD_ERR_NOMEM;
+    hd_status st = s.bg && s.skin && s.hair && (s.share || !h->share) && r ? HD_OK : HD_ERR_NOMEM;
     for (int y = 0; st == HD_OK && y < sh; y++)
         for (int x = 0; x < sw; x++) {
             const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
             r[2 * j] = rho[2 * i], r[2 * j + 1] = rho[2 * i + 1];
         }
     if (st == HD_OK) st = masks(&s, f, photo, coverage, r);
-    for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = 1.0f, h->skin[i] = h->hair[i] = 0.0f;
+    for (size_t i = 0; st == HD_OK && i < N; i++) {
+        h->bg[i] = 1.0f, h->skin[i] = h->hair[i] = 0.0f;
+        if (h->share) h->share[i] = 1.0f;
+    }
     for (int y = 0; st == HD_OK && y < sh; y++)
         for (int x = 0; x < sw; x++) {
             const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
             h->bg[i] = s.bg[j], h->skin[i] = s.skin[j], h->hair[i] = s.hair[j];
+            if (h->share) h->share[i] = s.share[j];
         }
-    free(s.bg), free(s.skin), free(s.hair), free(r);
+    free(s.bg), free(s.skin), free(s.hair), free(s.share), free(r);
     return st;
 }
 
@@ -782,10 +788,11 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     h->mesh = hd_malloc(N * sizeof(float)), h->skin = hd_malloc(N * sizeof(float)), h->hair = hd_malloc(N * sizeof(float));
     h->bg = hd_malloc(N * sizeof(float)), h->body = hd_calloc(N, sizeof(float)), h->zone = hd_calloc(N, sizeof(float));
     h->wb = torso_on && body == HD_HEAD_BODY_ALL ? hd_calloc(N, sizeof(float)) : NULL;
+    h->share = hd_malloc(N * sizeof(float));
     float *rho = hd_malloc(2 * N * sizeof(float)), *cover = hd_malloc(P * sizeof(float));
     float *nblend = hd_malloc(P * sizeof(float));
     hd_image nw = {0}, cov = {0};
-    st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && h->body && h->zone &&
+    st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && h->body && h->zone && h->share &&
                  (h->wb || !torso_on || body != HD_HEAD_BODY_ALL) && rho && cover && nblend
              ? HD_OK
              : HD_ERR_NOMEM;
@@ -935,7 +942,8 @@ float hd_head_body_zone(const hd_head *h, int x, int y)
 float hd_head_background(const hd_head *h, int x, int y)
 {
     if (!h || !h->bg || x < h->mx0 || y < h->my0 || x >= h->mx0 + h->mw || y >= h->my0 + h->mh) return 0.0f;
-    return h->bg[(size_t)(y - h->y0) * h->w + (size_t)(x - h->x0)];
+    const size_t i = (size_t)(y - h->y0) * h->w + (size_t)(x - h->x0);
+    return h->bg[i] > 0.5f ? 1.0f : h->share ? 1.0f - h->share[i] : 0.0f;
 }
 
 float hd_head_blur(const hd_head *h) { return h && h->normal ? HEAD_FIELD_BLUR * h->frame.e : 0.0f; }
