@@ -141,7 +141,8 @@ typedef struct hd_head {
     float *zone;        /* ... and the body's zone (the torso's reach below the chin) before its outline */
     float *neck;        /* the body's reach near the neck (with the body; else NULL: head.c, neck_reach) */
     float *ws, *wh;     /* the skin's and the hair's weights (hd_head_weight) */
-    float *wb;          /* the body's share of ws beyond the neck's reach, which the kept brightness leaves out (HD_HEAD_BODY_ALL only; else NULL) */
+    float *wb;          /* the body's share of ws beyond the neck's reach, left out of the brightness
+                         * kept (HD_HEAD_BODY_ALL only; else NULL) */
     float *near;        /* 1 at the skin's edge, falling into the hair */
     float *share;       /* the person's share of an outline pixel (1 inside it; the head's own window) */
 } hd_head;
@@ -153,8 +154,8 @@ typedef struct hd_head {
 enum { HD_HEAD_BODY_NONE = 0, HD_HEAD_BODY_NEAR = 1, HD_HEAD_BODY_ALL = 2 };
 /* Sets up face f's head (d: its decomposition, at the model's size; source: its own light; guard
  * as hd_ratio_field's). body (HD_HEAD_BODY_*, with the face's person segmentation only): what of the
- * person below the chin takes the change too, on a torso proxy. Without a frame (degenerate landmarks) h stays empty, and hd_head_apply
- * leaves the face's field alone. Free with hd_head_free. */
+ * person below the chin takes the change too, on a torso proxy. Without a frame (degenerate
+ * landmarks) h stays empty, and hd_head_apply leaves the face's field alone. Free with hd_head_free. */
 hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
                        const float source[HD_SH_COEFFS], float guard, int body, hd_head *h);
 void hd_head_free(hd_head *h);

@@ -4,8 +4,9 @@
  * (one minus the larger of the people's weights and their segmentation, whose last row goes on
  * down the photo: the body below the segmented crop; where the head relights the body, its
  * weights alone; where the head's own masks call it the background, none of the segmentation)
- * takes the change of a flat wall facing the camera (normal (0, 0, 1)) from the first face's own light to the target,
- * by the same ratio rule and guard as the face, with the first face's brightness factor:
+ * takes the change of a flat wall facing the camera (normal (0, 0, 1)) from the first face's own
+ * light to the target, by the same ratio rule and guard as the face, with the first face's
+ * brightness factor:
  *     out = in * exp(b * (log((s(n0, target) + g) / (s(n0, source) + g)) + t)),   b = 1 - people.
  * A distant light lights a flat wall evenly, so the change is one factor per channel; the person's
  * outline mixes the person's change and the wall's by its share. */

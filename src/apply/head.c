@@ -524,7 +524,8 @@ static hd_status neck_reach(hd_head *h, const hd_aligned_face *f)
 {
     const size_t N = (size_t)h->w * h->h;
     float *inside = hd_malloc(N * sizeof(float));
-    hd_status st = inside && (h->neck || (h->neck = hd_malloc(N * sizeof(float)))) ? HD_OK : HD_ERR_NOMEM;
+    h->neck = hd_malloc(N * sizeof(float));
+    hd_status st = inside && h->neck ? HD_OK : HD_ERR_NOMEM;
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x;
@@ -550,7 +551,6 @@ static float hair_reach(const hd_head *h, int segmented, int x, int y, float rs,
     if (reach - from > 1e-3f) *weight = 1.0f - hd_field_smoothstep((rs - from) / (reach - from));
     return reach;
 }
-
 
 /* Whether pixel i of the features (N pixels a plane) is the skin of medians med, deviations mad. */
 static int is_skin(const float *feat, size_t N, size_t i, const float med[NFEAT], const float mad[NFEAT])
@@ -675,7 +675,7 @@ static hd_status masks(hd_head *h, const hd_aligned_face *f, const hd_image *pho
         const float fn = 1 - hd_field_smoothstep((rho[2 * i + 1] - 1) / (SKIN_REACH_NECK - 1));
         h->skin[i] *= (fs > fn ? fs : fn) * share[i];
         h->hair[i] *= share[i];
-        if (h->share) h->share[i] = share[i];
+        h->share[i] = share[i];
     }
     free(rgb), free(feat), free(scratch), free(person), free(share), free(pick), free(own);
     return st;
@@ -695,24 +695,20 @@ static hd_status head_masks(hd_head *h, const hd_aligned_face *f, const hd_image
     s.x0 = sx0, s.y0 = sy0, s.w = sw, s.h = sh;
     const size_t M = (size_t)sw * sh, N = (size_t)h->w * h->h;
     s.bg = hd_malloc(M * sizeof(float)), s.skin = hd_malloc(M * sizeof(float)), s.hair = hd_malloc(M * sizeof(float));
-    s.share = h->share ? hd_malloc(M * sizeof(float)) : NULL;
+    s.share = hd_malloc(M * sizeof(float));
     float *r = hd_malloc(2 * M * sizeof(float));
-    hd_status st = s.bg && s.skin && s.hair && (s.share || !h->share) && r ? HD_OK : HD_ERR_NOMEM;
+    hd_status st = s.bg && s.skin && s.hair && s.share && r ? HD_OK : HD_ERR_NOMEM;
     for (int y = 0; st == HD_OK && y < sh; y++)
         for (int x = 0; x < sw; x++) {
             const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
             r[2 * j] = rho[2 * i], r[2 * j + 1] = rho[2 * i + 1];
         }
     if (st == HD_OK) st = masks(&s, f, photo, coverage, r);
-    for (size_t i = 0; st == HD_OK && i < N; i++) {
-        h->bg[i] = 1.0f, h->skin[i] = h->hair[i] = 0.0f;
-        if (h->share) h->share[i] = 1.0f;
-    }
+    for (size_t i = 0; st == HD_OK && i < N; i++) h->bg[i] = h->share[i] = 1.0f, h->skin[i] = h->hair[i] = 0.0f;
     for (int y = 0; st == HD_OK && y < sh; y++)
         for (int x = 0; x < sw; x++) {
             const size_t j = (size_t)y * sw + x, i = (size_t)(y + sy0 - h->y0) * h->w + (size_t)(x + sx0 - h->x0);
-            h->bg[i] = s.bg[j], h->skin[i] = s.skin[j], h->hair[i] = s.hair[j];
-            if (h->share) h->share[i] = s.share[j];
+            h->bg[i] = s.bg[j], h->skin[i] = s.skin[j], h->hair[i] = s.hair[j], h->share[i] = s.share[j];
         }
     free(s.bg), free(s.skin), free(s.hair), free(s.share), free(r);
     return st;
@@ -943,7 +939,7 @@ float hd_head_background(const hd_head *h, int x, int y)
 {
     if (!h || !h->bg || x < h->mx0 || y < h->my0 || x >= h->mx0 + h->mw || y >= h->my0 + h->mh) return 0.0f;
     const size_t i = (size_t)(y - h->y0) * h->w + (size_t)(x - h->x0);
-    return h->bg[i] > 0.5f ? 1.0f : h->share ? 1.0f - h->share[i] : 0.0f;
+    return h->bg[i] > 0.5f ? 1.0f : 1.0f - h->share[i];
 }
 
 float hd_head_blur(const hd_head *h) { return h && h->normal ? HEAD_FIELD_BLUR * h->frame.e : 0.0f; }

@@ -592,7 +592,7 @@
       if (top > 0 && k * top > 1) k = 1 / top;
       // (the canvas's bytes round to the nearest level, as the server's PNG does)
       if (!wall) for (let c = 0; c < 3; c++) d[p + c] = 255 * k * m.rgb[3 * j + c];
-      else for (let c = 0; c < 3; c++) d[p + c] = 255 * Math.min(1, k * m.rgb[3 * j + c] * wall[256 * c + m.people[m.px[j]]]);
+      else for (let c = 0; c < 3; c++) d[p + c] = 255 * Math.min(1, k * m.rgb[3 * j + c] * wall[m.people[m.px[j]]]);
     }
     photoCtx.putImageData(m.out, 0, 0);
     state.previews++;
@@ -603,17 +603,17 @@
   // per channel, b = 1 - people, r0 the ratio of a wall facing the camera (n = (0, 0, 1)) under the
   // light l and the first face's own, with the rule's guard (a hundredth of its source shading), t
   // the faces' brightness offset. Writes every pixel the faces leave (they are written after, by
-  // the caller, with the same factors) and returns the factor of each channel and people level
-  // (3 x 256).
+  // the caller, with the same factors) and returns the factor of each people level (256; the page's
+  // lights are grey, so one for all three channels).
   function relightWall(m, l, t) {
     const s = Math.max(shade(m.wallLight, 0, 0, 1), 0), g = RATIO_GUARD * Math.max(s, 1e-6);
     const lt = Math.max(shade(l, 0, 0, 1), 0), lr = lt === s ? 0 : Math.log((lt + g) / (s + g));
-    const F = new Float32Array(3 * 256);
-    for (let q = 0; q < 256; q++) F[q] = F[256 + q] = F[512 + q] = lr === 0 && t === 0 ? 1 : Math.exp((1 - q / 255) * (lr + t));
+    const F = new Float32Array(256);
+    for (let q = 0; q < 256; q++) F[q] = lr === 0 && t === 0 ? 1 : Math.exp((1 - q / 255) * (lr + t));
     const d = m.out.data, base = m.base.data, people = m.people;
     for (let p = 0; p < m.W * m.H; p++) {
-      const q = people[p], o = 4 * p;
-      for (let c = 0; c < 3; c++) d[o + c] = Math.min(255, base[o + c] * F[256 * c + q]);
+      const f = F[people[p]], o = 4 * p;
+      for (let c = 0; c < 3; c++) d[o + c] = Math.min(255, base[o + c] * f);
     }
     return F;
   }
