@@ -182,7 +182,7 @@ static int copy_file(const char *from, const char *to)
 /* The ground truth of a small synthetic set, scored as a prediction. */
 static void test_run(void)
 {
-    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f, 0, {0.0f, 0}};
+    hd_synth_options o = {4, 3, 32, 3, 4.0f, 0.0f, 0, {0.0f, 0}, 0.0f};
     if (hd_synth_write_set("set", &o, NULL, NULL) != HD_OK) {
         fprintf(stderr, "synth: %s\n", hd_error());
         test_failures++;

@@ -36,16 +36,22 @@ static double angle_deg(const float *a, const float *b, size_t P, size_t i)
     return acos(d) * 180.0 / M_PI;
 }
 
+/* A generator at size S, or NULL with the failure counted and reported. */
+static hd_synth *synth_or_fail(int S)
+{
+    hd_synth *s = NULL;
+    if (hd_synth_create(S, &s) == HD_OK) return s;
+    fprintf(stderr, "hd_synth_create: %s\n", hd_error());
+    test_failures++;
+    return NULL;
+}
+
 static void test_render(void)
 {
     const int S = 64;
     const size_t P = (size_t)S * S;
-    hd_synth *s = NULL;
-    if (hd_synth_create(S, &s) != HD_OK) {
-        fprintf(stderr, "hd_synth_create: %s\n", hd_error());
-        test_failures++;
-        return;
-    }
+    hd_synth *s = synth_or_fail(S);
+    if (!s) return;
     CHECK(hd_synth_size(s) == S);
     hd_synth_subject *a = NULL, *a2 = NULL, *b = NULL;
     CHECK(hd_synth_subject_make(s, 7, 3, &a) == HD_OK);
@@ -162,12 +168,8 @@ static void test_coarse_error(void)
     const int S = 64, SUBJECTS = 8, IMAGES = 4;
     const size_t P = (size_t)S * S;
     const float E = HD_SYNTH_COARSE_ERROR_DEFAULT;
-    hd_synth *s = NULL;
-    if (hd_synth_create(S, &s) != HD_OK) {
-        fprintf(stderr, "hd_synth_create: %s\n", hd_error());
-        test_failures++;
-        return;
-    }
+    hd_synth *s = synth_or_fail(S);
+    if (!s) return;
     double *sum_e = calloc(6 * P, sizeof(double)), *sum_0 = sum_e ? sum_e + 3 * P : NULL; /* sums of normals */
     int *count = calloc(P, sizeof(int));
     double err0 = 0, errE = 0, dev = 0, pose_sum[3] = {0}, pose_sq = 0;
@@ -253,6 +255,65 @@ static void test_coarse_error(void)
     hd_synth_free(s);
 }
 
+/* The fit's pose error set on its own (hd_synth_render_fit): the image and its ground truth are the
+ * default render's, the pose error's spread is the one asked for (over 64 images, each angle), and
+ * the shape and tilt errors stay E's: with a pose error of 0.01 degrees the coarse normals are off
+ * from the exact-pose ones by about as much as the default's, less its pose part. A negative pose
+ * error is the default (E / 2) exactly. */
+static void test_coarse_pose(void)
+{
+    const int S = 48, SUBJECTS = 16, IMAGES = 4;
+    const float E = HD_SYNTH_COARSE_ERROR_DEFAULT, SD = 3.0f;
+    const size_t P = (size_t)S * S;
+    hd_synth *s = synth_or_fail(S);
+    if (!s) return;
+    int same = 1, as_default = 1, n = 0;
+    double sq = 0, dev_default = 0, dev_tiny = 0;
+    long texels = 0;
+    for (int j = 0; j < SUBJECTS; j++) {
+        hd_synth_subject *sub = NULL;
+        CHECK(hd_synth_subject_make(s, 9, j, &sub) == HD_OK);
+        for (int k = 0; k < IMAGES && sub; k++) {
+            hd_synth_face f0 = {0}, fd = {0}, fp = {0}, ft = {0}, fneg = {0};
+            CHECK(hd_synth_render(s, sub, k, 20.0f, 0.0f, &f0) == HD_OK);
+            CHECK(hd_synth_render(s, sub, k, 20.0f, E, &fd) == HD_OK);
+            CHECK(hd_synth_render_fit(s, sub, k, 20.0f, E, SD, &fp) == HD_OK);
+            CHECK(hd_synth_render_fit(s, sub, k, 20.0f, E, 0.01f, &ft) == HD_OK);
+            CHECK(hd_synth_render_fit(s, sub, k, 20.0f, E, -1.0f, &fneg) == HD_OK);
+            same &= same_face_but_coarse(&fd, &fp) && same_face_but_coarse(&fd, &ft);
+            as_default &= same_image(&fd.normal, &fneg.normal) && fd.coarse_pitch_deg == fneg.coarse_pitch_deg;
+            const float d[3] = {fp.coarse_yaw_deg - fp.yaw_deg, fp.coarse_pitch_deg - fp.pitch_deg,
+                                fp.coarse_roll_deg - fp.roll_deg};
+            for (int c = 0; c < 3; c++) sq += d[c] * d[c];
+            n += 3;
+            for (size_t i = 0; i < P; i++)
+                if (f0.mask.data[i] > 0.5f && fd.mask.data[i] > 0.5f) {
+                    dev_default += angle_deg(fd.normal.data, f0.normal.data, P, i);
+                    dev_tiny += angle_deg(ft.normal.data, f0.normal.data, P, i);
+                    texels++;
+                }
+            hd_synth_face_free(&f0), hd_synth_face_free(&fd), hd_synth_face_free(&fp);
+            hd_synth_face_free(&ft), hd_synth_face_free(&fneg);
+        }
+        hd_synth_subject_free(sub);
+    }
+    const double sd = sqrt(sq / (n ? n : 1));
+    dev_default /= (double)(texels ? texels : 1), dev_tiny /= (double)(texels ? texels : 1);
+    fprintf(stderr, "coarse pose error: asked %.1f, measured %.2f over %d angles; coarse normals off the exact "
+            "pose's by %.1f degrees (default) and %.1f (pose error 0.01)\n", (double)SD, sd, n, dev_default, dev_tiny);
+    CHECK(same && as_default);
+    CHECK(sd > 0.8 * SD && sd < 1.2 * SD);
+    CHECK(dev_tiny > 5.0 && dev_tiny < dev_default - 2.0);
+    hd_synth_subject *sub = NULL;
+    hd_synth_face bad = {0};
+    CHECK(hd_synth_subject_make(s, 9, 0, &sub) == HD_OK);
+    CHECK(hd_synth_render_fit(s, sub, 0, 0.0f, E, HD_SYNTH_COARSE_ERROR_MAX + 1.0f, &bad) == HD_ERR_RANGE);
+    CHECK(hd_synth_render_fit(s, sub, 0, 0.0f, E, NAN, &bad) == HD_ERR_RANGE);
+    hd_synth_face_free(&bad);
+    hd_synth_subject_free(sub);
+    hd_synth_free(s);
+}
+
 static int files_equal(const char *p, const char *q)
 {
     char *a = NULL, *b = NULL;
@@ -268,7 +329,7 @@ static int files_equal(const char *p, const char *q)
  * satisfy image = albedo x shading within quantisation. */
 static void test_write_set(void)
 {
-    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT, 0, {0.0f, 0}};
+    hd_synth_options o = {3, 3, 32, 11, 5.0f, HD_SYNTH_COARSE_ERROR_DEFAULT, 0, {0.0f, 0}, 0.0f};
     hd_set_threads(1);
     CHECK(hd_synth_write_set("set1", &o, NULL, NULL) == HD_OK);
     hd_set_threads(2);
@@ -343,12 +404,15 @@ static void test_write_set(void)
     CHECK(hd_synth_write_set("set3", &st, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "png_store") != NULL);
     /* bad options are refused with a reason */
-    hd_synth_options z = {0, 1, 32, 1, 0, 0, 0, {0.0f, 0}};
+    hd_synth_options z = {0, 1, 32, 1, 0, 0, 0, {0.0f, 0}, 0.0f};
     CHECK(hd_synth_write_set("set3", &z, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "subjects") != NULL);
-    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f, 0, {0.0f, 0}};
+    hd_synth_options ce = {1, 1, 32, 1, 0, -2.0f, 0, {0.0f, 0}, 0.0f};
     CHECK(hd_synth_write_set("set3", &ce, NULL, NULL) == HD_ERR_RANGE);
     CHECK(strstr(hd_error(), "coarse-error") != NULL);
+    hd_synth_options cp = {1, 1, 32, 1, 0, 20.0f, 0, {0.0f, 0}, -3.0f};
+    CHECK(hd_synth_write_set("set3", &cp, NULL, NULL) == HD_ERR_RANGE);
+    CHECK(strstr(hd_error(), "coarse-pose-error") != NULL);
 }
 
 /* The PNG writer's FAST and STORE efforts (what the set's files use) read back exactly like
@@ -498,6 +562,7 @@ int main(void)
     test_use_source_models(0);
     test_render();
     test_coarse_error();
+    test_coarse_pose();
     test_write_set();
     test_png_fast();
     test_camera();

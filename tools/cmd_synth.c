@@ -21,7 +21,7 @@ static void on_progress(void *ctx, long done, long total)
 int cmd_synth(int argc, char **argv)
 {
     int subjects = 0, per_subject = 0, size = 256, seed = 1, threads = 0;
-    float jitter = 0.0f, coarse_error = HD_SYNTH_COARSE_ERROR_DEFAULT;
+    float jitter = 0.0f, coarse_error = HD_SYNTH_COARSE_ERROR_DEFAULT, coarse_pose = 0.0f;
     const char *png = "store", *effects = "all";
     float camera = 0.0f;
     const cli_opt opts[] = {
@@ -32,6 +32,8 @@ int cmd_synth(int argc, char **argv)
         {"pose-jitter", 0, CLI_OPT_FLOAT, &jitter, "DEG", "maximum yaw, pitch and roll of the head in degrees (default 0: frontal)"},
         {"coarse-error", 0, CLI_OPT_FLOAT, &coarse_error, "DEG",
          "size of the coarse normals' fit error, 0..40 (default 20: about 23 degrees off; 0: exact pose)"},
+        {"coarse-pose-error", 0, CLI_OPT_FLOAT, &coarse_pose, "DEG",
+         "the fit's pose error alone, standard deviation per angle, (0, 40] (default: half of --coarse-error)"},
         {"png", 0, CLI_OPT_STRING, &png, "fast|store",
          "PNG compression: store (default: uncompressed, 1.6 MB an image at 256, ~110 images/s a thread) "
          "or fast (zlib: half the disk, ~65 images/s a thread); the pixels are the same"},
@@ -43,7 +45,7 @@ int cmd_synth(int argc, char **argv)
         {NULL, 0, 0, NULL, NULL, NULL},
     };
     const cli_cmd_spec spec = {
-        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--png fast|store] [--camera P] [-j N]",
+        "synth", "OUT --subjects N --per-subject K [--size S] [--seed X] [--pose-jitter DEG] [--coarse-error DEG] [--coarse-pose-error DEG] [--png fast|store] [--camera P] [-j N]",
         "Renders synthetic faces straight into the aligned texture space (the UV layout of the\n"
         "canonical face mesh) and writes, per image, into OUT/subject_XXXX/: YYYY.png (the face),\n"
         "YYYY.mask.png, YYYY.normal.png (coarse normals, a modelled 3DMM fit: the canonical mesh\n"
@@ -66,6 +68,8 @@ int cmd_synth(int argc, char **argv)
     if (!(jitter >= 0.0f && jitter <= 45.0f)) return cli_usage_error(&spec, "--pose-jitter %g outside [0, 45]", jitter);
     if (!(coarse_error >= 0.0f && coarse_error <= HD_SYNTH_COARSE_ERROR_MAX))
         return cli_usage_error(&spec, "--coarse-error %g outside [0, %g]", coarse_error, HD_SYNTH_COARSE_ERROR_MAX);
+    if (!(coarse_pose >= 0.0f && coarse_pose <= HD_SYNTH_COARSE_ERROR_MAX))
+        return cli_usage_error(&spec, "--coarse-pose-error %g outside (0, %g]", coarse_pose, HD_SYNTH_COARSE_ERROR_MAX);
     if (strcmp(png, "fast") != 0 && strcmp(png, "store") != 0)
         return cli_usage_error(&spec, "--png %s is neither fast nor store", png);
     if (seed < 0) return cli_usage_error(&spec, "--seed %d must be >= 0", seed);
@@ -88,7 +92,7 @@ int cmd_synth(int argc, char **argv)
         p += n + (p[n] == ',');
     }
     hd_synth_options o = {subjects, per_subject, size, (uint64_t)seed, jitter, coarse_error, strcmp(png, "store") == 0,
-                          {camera, flags}};
+                          {camera, flags}, coarse_pose};
     cli_progress p;
     cli_progress_start(&p, "synth", (long)subjects * per_subject);
     if (hd_synth_write_set(out, &o, on_progress, &p) != HD_OK) return cli_report("synth");

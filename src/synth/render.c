@@ -108,8 +108,8 @@ void hd_synth_face_free(hd_synth_face *f)
 
 /* The modelled 3DMM fit of one image (the coarse normals), drawn from its own stream so that the
  * image's pose and light are the same whatever the error. With size E > 0, three zero-mean parts:
- *   pose   yaw, pitch and roll each off by a normal draw of standard deviation E * COARSE_POSE
- *          (clipped at 2.5 standard deviations);
+ *   pose   yaw, pitch and roll each off by a normal draw of standard deviation E * COARSE_POSE,
+ *          or pose_sd degrees where that is given (>= 0), clipped at 2.5 standard deviations;
  *   shape  the canonical mesh deformed like a random identity, E * COARSE_SHAPE identity spreads
  *          (at most one);
  *   tilt   a smooth height field h = sum_w sin(k_w . x + phi_w) of COARSE_WAVES plane waves (1 to
@@ -140,13 +140,14 @@ typedef struct coarse_fit {
 
 /* Draws the fit of image `image` into fit (whose tables hold 4 * COARSE_WAVES * S floats) and f's
  * coarse pose; cn (V, 3) gets the fitted mesh's posed vertex normals; pos (V, 3) is scratch. */
-static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int image, float E, hd_synth_face *f,
-                            coarse_fit *fit, float *pos, float *cn)
+static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int image, float E, float pose_sd,
+                            hd_synth_face *f, coarse_fit *fit, float *pos, float *cn)
 {
     const int V = s->mesh.nv, S = s->size;
     fit->gain = 0.0f;
     f->coarse_yaw_deg = f->yaw_deg, f->coarse_pitch_deg = f->pitch_deg, f->coarse_roll_deg = f->roll_deg;
-    if (!(E > 0.0f)) {
+    if (pose_sd < 0.0f) pose_sd = COARSE_POSE * E;
+    if (!(E > 0.0f) && !(pose_sd > 0.0f)) {
         pose_matrix(f->yaw_deg, f->pitch_deg, f->roll_deg, fit->R);
         for (int v = 0; v < V; v++) rotate(fit->R, s->canon_normal + 3 * v, cn + 3 * v);
         return;
@@ -159,7 +160,7 @@ static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int 
     float e[3];
     for (int k = 0; k < 3; k++) {
         float z = hd_rng_normal(&r);
-        e[k] = COARSE_POSE * E * (z < -2.5f ? -2.5f : z > 2.5f ? 2.5f : z);
+        e[k] = pose_sd * (z < -2.5f ? -2.5f : z > 2.5f ? 2.5f : z);
     }
     f->coarse_yaw_deg += e[0];
     f->coarse_pitch_deg += e[1];
@@ -209,11 +210,20 @@ static void coarse_tilt(const coarse_fit *fit, int S, int x, int y, float c[3])
 hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int image, float pose_jitter_deg,
                           float coarse_error_deg, hd_synth_face *out)
 {
+    return hd_synth_render_fit(s, sub, image, pose_jitter_deg, coarse_error_deg, -1.0f, out);
+}
+
+hd_status hd_synth_render_fit(const hd_synth *s, const hd_synth_subject *sub, int image, float pose_jitter_deg,
+                              float coarse_error_deg, float coarse_pose_deg, hd_synth_face *out)
+{
     if (image < 0 || image >= 0xFFFFFF) return hd_fail(HD_ERR_ARG, "synth: image index %d out of range", image);
     if (!(pose_jitter_deg >= 0.0f && pose_jitter_deg <= 45.0f))
         return hd_fail(HD_ERR_RANGE, "synth: pose jitter %g outside [0, 45] degrees", pose_jitter_deg);
     if (!(coarse_error_deg >= 0.0f && coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
         return hd_fail(HD_ERR_RANGE, "synth: coarse-normal error %g outside [0, %g] degrees", coarse_error_deg,
+                       HD_SYNTH_COARSE_ERROR_MAX);
+    if (!(coarse_pose_deg < 0.0f || coarse_pose_deg <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_fail(HD_ERR_RANGE, "synth: coarse pose error %g outside [0, %g] degrees", coarse_pose_deg,
                        HD_SYNTH_COARSE_ERROR_MAX);
     const int S = s->size, V = s->mesh.nv;
     const size_t P = (size_t)S * S;
@@ -255,7 +265,7 @@ hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int im
      * carry normals unchanged in length) */
     hd_mesh_vertex_normals(&s->mesh, sub->pos, vn);
     for (int v = 0; v < V; v++) rotate(R, vn + 3 * v, vn + 3 * v);
-    coarse_fit_draw(s, sub, image, coarse_error_deg, out, &fit, fit_pos, cn);
+    coarse_fit_draw(s, sub, image, coarse_error_deg, coarse_pose_deg, out, &fit, fit_pos, cn);
     /* texture axes in the camera frame: +u is the face's +x, +v its -y */
     const float ax_u[3] = {R[0], R[3], R[6]}, ax_v[3] = {-R[1], -R[4], -R[7]};
     const int *tri = s->mesh.tri;

@@ -42,6 +42,12 @@ void hd_synth_subject_free(hd_synth_subject *subject);
 #define HD_SYNTH_COARSE_ERROR_MAX 40.0f
 hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
                           float pose_jitter_deg, float coarse_error_deg, hd_synth_face *out);
+/* The same with the fit's pose error given on its own: yaw, pitch and roll off by coarse_pose_deg
+ * (standard deviation; a landmark fit's pose is better than E/2), or by E/2 where it is negative;
+ * the shape and tilt errors stay E's. hd_synth_render is this with -1. */
+hd_status hd_synth_render_fit(const hd_synth *synth, const hd_synth_subject *subject, int image,
+                              float pose_jitter_deg, float coarse_error_deg, float coarse_pose_deg,
+                              hd_synth_face *out);
 void hd_synth_face_free(hd_synth_face *face);
 /* Writes the SPEC section 5 files of one face as dir/NAME.png, NAME.mask.png, NAME.normal.png,
  * NAME.albedo.png, NAME.normal_gt.png, NAME.shading.png (16 bit, s/2), NAME.shading.pfm and
@@ -86,6 +92,7 @@ typedef struct hd_synth_options {
     float coarse_error_deg; /* the coarse normals' fit error (hd_synth_render); 0: exact pose, no shape error */
     int png_store;          /* 0: the PNGs at HD_PNG_FAST; 1: HD_PNG_STORE (uncompressed: faster, larger) */
     hd_synth_camera camera; /* camera effects on the images (probability 0: none) */
+    float coarse_pose_deg;  /* the fit's pose error, degrees (hd_synth_render_fit); 0: coarse_error_deg / 2 */
 } hd_synth_options;
 /* Called now and then with the number of images written (may be NULL). */
 typedef void (*hd_synth_progress_fn)(void *ctx, long done, long total);

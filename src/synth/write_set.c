@@ -75,6 +75,12 @@ static hd_status paste(hd_image *sheet, const hd_image *img, int cell, int x0, i
 
 /* The preview sheet: one row per subject (up to 8): albedo, ground-truth normals, shading of the
  * first image, then up to 4 images. */
+/* The fit's pose error as hd_synth_render_fit takes it: negative for the default (E / 2). */
+static float coarse_pose(const hd_synth_options *o)
+{
+    return o->coarse_pose_deg > 0.0f ? o->coarse_pose_deg : -1.0f;
+}
+
 static hd_status write_preview(const hd_synth *s, const char *out, const hd_synth_options *o)
 {
     int rows = o->subjects < PREVIEW_SUBJECTS ? o->subjects : PREVIEW_SUBJECTS;
@@ -88,7 +94,7 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
         hd_synth_subject *sub = NULL;
         st = hd_synth_subject_make(s, o->seed, rsub, &sub);
         for (int k = 0; k < imgs && st == HD_OK; k++) {
-            st = hd_synth_render(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, &f);
+            st = hd_synth_render_fit(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, coarse_pose(o), &f);
             if (st == HD_OK) st = hd_synth_camera_apply(&f, &o->camera, o->seed, rsub, k, NULL);
             if (st != HD_OK) break;
             int y0 = rsub * (cell + gap);
@@ -131,6 +137,9 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
     const hd_png_effort effort = o->png_store ? HD_PNG_STORE : HD_PNG_FAST;
     if (!(o->coarse_error_deg >= 0.0f && o->coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
         return hd_fail(HD_ERR_RANGE, "synth: --coarse-error %g outside [0, %g] degrees", o->coarse_error_deg,
+                       HD_SYNTH_COARSE_ERROR_MAX);
+    if (!(o->coarse_pose_deg >= 0.0f && o->coarse_pose_deg <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_fail(HD_ERR_RANGE, "synth: --coarse-pose-error %g outside [0, %g] degrees", o->coarse_pose_deg,
                        HD_SYNTH_COARSE_ERROR_MAX);
     hd_synth *s = NULL;
     hd_status st = hd_synth_create(o->size, &s);
@@ -177,7 +186,8 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 char dir[4096], name[32];
                 snprintf(dir, sizeof dir, "%s/subject_%04d", out, s0 + j);
                 snprintf(name, sizeof name, "%04d", image);
-                hd_status e = hd_synth_render(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg, &f);
+                hd_status e = hd_synth_render_fit(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg,
+                                                  coarse_pose(o), &f);
                 hd_synth_camera_record rec;
                 if (e == HD_OK) e = hd_synth_camera_apply(&f, &o->camera, o->seed, s0 + j, image, &rec);
                 if (e == HD_OK) {
