@@ -105,16 +105,17 @@ px, py = f0.person_origin
 nx, ny = int(f0.landmarks[1, 0]) - px, int(f0.landmarks[1, 1]) - py
 check(f0.person[ny, nx, 0] > 0.9, "Face.person at the nose: %.3f" % f0.person[ny, nx, 0])
 # background="relight": as hdnet relight --background relight, byte for byte; the background moves
-# by one factor per channel where the person is surely not (the default keeps it)
+# by one factor per channel where the person is surely not (the default keeps it); a light from the
+# side (at 40,20 the wall's factor is within 0.1 % of 1 since the normals take the fit's pose)
 walled = hdnet.Model(background="relight")
 check(walled.background == "relight" and model.background == "keep", "Model.background")
-cli("relight", photo_path, "--dir", "40,20", "--background", "relight", "-o", "cli_wall.pfm")
-wall = walled.relight(photo, direction=(40, 20))
+cli("relight", photo_path, "--dir", "70,20", "--background", "relight", "-o", "cli_wall.pfm")
+wall = walled.relight(photo, direction=(70, 20))
 check(np.array_equal(wall, hdnet.imread("cli_wall.pfm")), "background= differs from hdnet relight --background relight")
 sure_bg = np.zeros(photo.shape[:2], bool)
 h, w = f0.person.shape[:2]
 sure_bg[py:py + h, px:px + w] = f0.person[..., 0] < 0.01
-kept = model.relight(photo, direction=(40, 20))
+kept = model.relight(photo, direction=(70, 20))
 check(sure_bg.sum() > 1000 and np.array_equal(kept[sure_bg], photo[sure_bg]), "the kept background changed")
 ratio = wall[sure_bg] / np.maximum(photo[sure_bg], 1e-6)
 lit = photo[sure_bg] > 0.05

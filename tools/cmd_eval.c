@@ -22,8 +22,10 @@ static void cell(int has, const char *fmt, double v)
 
 static void print_table(const hd_eval_report *r)
 {
-    printf("%ld images (%ld skipped); lighting classes: k-means, k = %d%s\n\n", r->images, r->skipped, r->kmeans_k,
+    printf("%ld images (%ld skipped); lighting classes: k-means, k = %d%s", r->images, r->skipped, r->kmeans_k,
            r->source == HD_SOURCE_FIT ? "; the prediction's light: the fit of S on N (--source-light fit)" : "");
+    if (r->repose > 0) printf("; normals turned by %g of the way to the coarse normals' pose (--repose)", (double)r->repose);
+    printf("\n\n");
     printf("%-28s %15s %7s %7s %7s | %7s %7s %7s | %7s %7s | %7s | %7s\n", "method", "normal (deg)", "<20%", "<25%",
            "<30%", "alb MAE", "RMSE", "si MAE", "rec MAE", "RMSE", "sh MAE", "light%");
     for (int i = 0; i < r->nrows; i++) {
@@ -257,7 +259,7 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
 typedef struct eval_args {
     const char *model_path, *pred, *out, *rule, *heldout, *sheets, *source, *white_balance, *ml_lights;
     int threads, quiet, photos, pairs, limit, json, multilight, refs, free_level;
-    float guard;
+    float guard, repose;
     const char *data;
     hd_photo_rule how; /* from rule, source and guard (eval_check) */
 } eval_args;
@@ -281,6 +283,9 @@ static int eval_check(const cli_cmd_spec *spec, eval_args *a, const char *surplu
     if (!(a->guard >= 0.0f && a->guard <= 10.0f)) return cli_usage_error(spec, "--guard wants 0..10, got %g", a->guard);
     if (a->guard > 0 && !a->photos && !a->pairs && !a->multilight)
         return cli_usage_error(spec, "--guard goes with --photos, --pairs or --multilight");
+    if (!(a->repose >= 0.0f && a->repose <= 1.0f)) return cli_usage_error(spec, "--repose wants 0..1, got %g", a->repose);
+    if (a->repose > 0 && (a->pairs || a->photos || a->multilight))
+        return cli_usage_error(spec, "--repose goes with the ground-truth evaluation (photos always take half the turn)");
     if (a->white_balance && (a->pairs || a->photos || a->multilight))
         return cli_usage_error(spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
     return 0;
@@ -337,7 +342,8 @@ static int run_ground_truth(const cli_cmd_spec *spec, const eval_args *a, const 
     }
     /* the ground-truth evaluation scores L-Net's light unless told otherwise (SPEC section 7) */
     hd_eval_report rep;
-    hd_status st = hd_eval_run_light(a->data, a->pred, model, a->source ? a->how.source : HD_SOURCE_LNET, &rep, warn);
+    hd_status st = hd_eval_run_with(a->data, a->pred, model, a->source ? a->how.source : HD_SOURCE_LNET, a->repose,
+                                    &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
     snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", a->pred ? "predictions" : "hdnet model");
@@ -376,6 +382,9 @@ int cmd_eval(int argc, char **argv)
          "with --photos: instead of scores, a before / after sheet per photo into folder OUT; with --multilight: "
          "also a sheet per subject (the truth, relit, transfer and bound per light) into OUT"},
         CLI_OPT_SOURCE_LIGHT_ROW(a.source),
+        {"repose", 0, CLI_OPT_FLOAT, &a.repose, "S",
+         "the ground-truth evaluation: first turn the model's normals by S (0..1) of the rotation onto each image's "
+         "coarse normals' pose, as photos are (docs/evaluation.md; default 0)"},
         CLI_OPT_WHITE_BALANCE_ROW(a.white_balance),
         {"guard", 0, CLI_OPT_FLOAT, &a.guard, "G",
          "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "

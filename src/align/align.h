@@ -25,4 +25,9 @@ hd_status hd_aligner_set_detection(hd_aligner *aligner, float min_score, float m
  * photo: 3 channels, the one the face was aligned in. */
 hd_status hd_aligner_segment(hd_aligner *aligner, const hd_image *photo, hd_aligned_face *face);
 
+/* The rotation R (row-major) that maximises sum_i w_i c_i . (R p_i), from S_ab = sum_i w_i p_ia c_ib
+ * (Horn 1987, unit quaternions): the similarity fit's, and the one that turns the model's normals
+ * to the landmark fit's pose (hd_face_repose). */
+void hd_best_rotation(const double S[3][3], double R[9]);
+
 #endif /* HD_ALIGN_H */

@@ -51,8 +51,30 @@ static void sym4_top_eigenvector(double a[4][4], double vec[4])
     for (int k = 0; k < 4; k++) vec[k] = v[k][best] / norm;
 }
 
-/* Least-squares similarity c_i ~ s R p_i + t (Horn 1987: R from the top eigenvector of the 4x4
- * matrix built from the cross-covariance of the centred points; s = sum c'.R p' / sum |p'|^2).
+/* (align.h) Horn 1987: the unit quaternion of R is the top eigenvector of the 4x4 matrix built from S. */
+void hd_best_rotation(const double S[3][3], double R[9])
+{
+    double N[4][4] = {
+        {S[0][0] + S[1][1] + S[2][2], S[1][2] - S[2][1], S[2][0] - S[0][2], S[0][1] - S[1][0]},
+        {S[1][2] - S[2][1], S[0][0] - S[1][1] - S[2][2], S[0][1] + S[1][0], S[2][0] + S[0][2]},
+        {S[2][0] - S[0][2], S[0][1] + S[1][0], -S[0][0] + S[1][1] - S[2][2], S[1][2] + S[2][1]},
+        {S[0][1] - S[1][0], S[2][0] + S[0][2], S[1][2] + S[2][1], -S[0][0] - S[1][1] + S[2][2]}};
+    double q[4];
+    sym4_top_eigenvector(N, q);
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    R[0] = w * w + x * x - y * y - z * z;
+    R[1] = 2 * (x * y - w * z);
+    R[2] = 2 * (x * z + w * y);
+    R[3] = 2 * (x * y + w * z);
+    R[4] = w * w - x * x + y * y - z * z;
+    R[5] = 2 * (y * z - w * x);
+    R[6] = 2 * (x * z - w * y);
+    R[7] = 2 * (y * z + w * x);
+    R[8] = w * w - x * x - y * y + z * z;
+}
+
+/* Least-squares similarity c_i ~ s R p_i + t (R by hd_best_rotation from the cross-covariance of
+ * the centred points; s = sum c'.R p' / sum |p'|^2).
  * Returns the rms residual. */
 static double fit_similarity(int n, const float *p, const float (*c)[3], double *s_out, double R[9], double t[3])
 {
@@ -77,23 +99,7 @@ static double fit_similarity(int n, const float *p, const float (*c)[3], double 
             for (int b = 0; b < 3; b++) S[a][b] += dp[a] * dc[b];
         pp += dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2];
     }
-    double N[4][4] = {
-        {S[0][0] + S[1][1] + S[2][2], S[1][2] - S[2][1], S[2][0] - S[0][2], S[0][1] - S[1][0]},
-        {S[1][2] - S[2][1], S[0][0] - S[1][1] - S[2][2], S[0][1] + S[1][0], S[2][0] + S[0][2]},
-        {S[2][0] - S[0][2], S[0][1] + S[1][0], -S[0][0] + S[1][1] - S[2][2], S[1][2] + S[2][1]},
-        {S[0][1] - S[1][0], S[2][0] + S[0][2], S[1][2] + S[2][1], -S[0][0] - S[1][1] + S[2][2]}};
-    double q[4];
-    sym4_top_eigenvector(N, q);
-    double w = q[0], x = q[1], y = q[2], z = q[3];
-    R[0] = w * w + x * x - y * y - z * z;
-    R[1] = 2 * (x * y - w * z);
-    R[2] = 2 * (x * z + w * y);
-    R[3] = 2 * (x * y + w * z);
-    R[4] = w * w - x * x + y * y - z * z;
-    R[5] = 2 * (y * z - w * x);
-    R[6] = 2 * (x * z - w * y);
-    R[7] = 2 * (y * z + w * x);
-    R[8] = w * w - x * x - y * y + z * z;
+    hd_best_rotation(S, R);
     double num = 0;
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++) num += R[3 * b + a] * S[a][b]; /* sum_i c'_i . R p'_i */

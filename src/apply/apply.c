@@ -329,7 +329,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         hd_decomposition d;
         memset(&d, 0, sizeof d);
         face_rule fr = {{0}, q->guard};
-        st = hd_model_decompose(model, &f->texture, 1, &d);
+        st = hd_face_decompose(model, f, &d);
         if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);
         hd_head head;

@@ -127,6 +127,16 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
  * head proxy posed by the mesh fit (an ellipsoid skull, a cylinder neck), its normals blended with
  * the model's near the mesh, the skin and hair masks of a colour model seeded from the face, in a
  * window (x0, y0, w, h) of the W x H photo. */
+/* Turns the model's normals d of face f (aligned from a photo) toward the landmark fit's pose
+ * (repose.c): by `share` (0..1) of the rotation that best carries them onto f's coarse normals over
+ * f's mask; *angle_deg (may be NULL) gets the angle turned. share <= 0 leaves them. The share the
+ * photo paths use, HD_REPOSE_SHARE, was chosen on the Yale tuning subjects (docs/evaluation.md). */
+#define HD_REPOSE_SHARE 0.5f
+hd_status hd_face_repose(const hd_aligned_face *f, hd_decomposition *d, float share, float *angle_deg);
+/* The decomposition of face f of a photo: hd_model_decompose of its texture, the normals turned by
+ * hd_face_repose(HD_REPOSE_SHARE). Every path that decomposes a photo's face takes it. */
+hd_status hd_face_decompose(hd_model *model, const hd_aligned_face *f, hd_decomposition *d);
+
 typedef struct hd_head {
     int W, H, x0, y0, w, h;
     int mx0, my0, mw, mh; /* the head's own window within it (its masks'; the rest is the body's) */

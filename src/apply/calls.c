@@ -120,7 +120,12 @@ hd_status hd_estimate_face_light_photo(hd_model *model, hd_aligner *aligner, con
     hd_aligned_face *faces = NULL;
     int n = 0;
     hd_status st = hd_photo_faces(aligner, model, photo, &faces, &n);
-    if (st == HD_OK) st = hd_estimate_face_light(model, &faces[0].texture, &faces[0].mask, source, light);
+    /* the face's normals turned toward the fit's pose, as the photo it is transferred to is relit on */
+    hd_decomposition d;
+    memset(&d, 0, sizeof d);
+    if (st == HD_OK) st = hd_face_decompose(model, &faces[0], &d);
+    if (st == HD_OK) st = hd_reference_light(&d, &faces[0].mask, source, light);
+    hd_decomposition_free(&d);
     hd_aligned_faces_free(faces, n);
     if (st == HD_OK && nfaces) *nfaces = n;
     return st;
@@ -140,7 +145,7 @@ hd_status hd_decompose_photo(hd_model *model, hd_aligner *aligner, const hd_imag
     hd_aligned_face *faces = NULL;
     int n = 0;
     hd_status st = hd_photo_faces(aligner, model, photo, &faces, &n);
-    if (st == HD_OK) st = hd_model_decompose(model, &faces[0].texture, 1, d);
+    if (st == HD_OK) st = hd_face_decompose(model, &faces[0], d);
     if (st == HD_OK && face) {
         *face = faces[0]; /* the best face moves to the caller */
         memset(&faces[0], 0, sizeof faces[0]);

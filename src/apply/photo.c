@@ -94,6 +94,8 @@ hd_status hd_decompose_photo_maps(hd_model *model, hd_aligner *aligner, const hd
     if (st == HD_OK && !tex) st = HD_ERR_NOMEM;
     for (int k = 0; st == HD_OK && k < m->nfaces; k++) tex[k] = m->faces[k].texture; /* borrowed */
     if (st == HD_OK) st = hd_model_decompose(model, tex, m->nfaces, m->d);
+    for (int k = 0; st == HD_OK && k < m->nfaces; k++) /* hd_face_decompose's, for the batch */
+        st = hd_face_repose(&m->faces[k], &m->d[k], HD_REPOSE_SHARE, NULL);
     free(tex);
     if (st == HD_OK) st = hd_image_alloc(&m->recon, W, H, 3);
     if (st == HD_OK) memcpy(m->recon.data, photo->data, (size_t)W * H * 3 * sizeof(float));

@@ -34,6 +34,7 @@ typedef struct hd_eval_report {
     long images, skipped;
     int kmeans_k;
     hd_source_light source; /* the prediction's light that the lighting classification scored */
+    float repose;           /* the share of the turn to the coarse normals' pose the normals took (0: none) */
 } hd_eval_report;
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
                       void (*warn)(const char *message));
@@ -43,6 +44,12 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
  * the light the relighting rule takes as the face's own. Only the light column changes. */
 hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                             hd_eval_report *report, void (*warn)(const char *message));
+/* hd_eval_run_light with the predicted normals first turned by `repose` (0..1) of the rotation that
+ * carries them onto the image's coarse normals (hd_face_repose, what the photo paths do with
+ * HD_REPOSE_SHARE): where the coarse normals' pose is a landmark fit's, how much the model gains from
+ * it (docs/evaluation.md, "The head's pose"). Images without coarse normals are scored as they are. */
+hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
+                           float repose, hd_eval_report *report, void (*warn)(const char *message));
 /* The report as JSON: the text (malloc'ed; NULL with the reason set when out of memory), or
  * written to path atomically. */
 char *hd_eval_report_json(const hd_eval_report *report);

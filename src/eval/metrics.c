@@ -8,6 +8,7 @@
 #include <string.h>
 #include <cjson/cJSON.h>
 #include "core/core.h"
+#include "apply/apply.h"
 #include "io/dataset.h"
 #include "eval/eval_json.h"
 #include "eval/metrics.h"
@@ -440,8 +441,26 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
 hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                             hd_eval_report *rep, void (*warn)(const char *message))
 {
+    return hd_eval_run_with(data_dir, pred_dir, model, source, 0.0f, rep, warn);
+}
+
+/* The prediction's normals turned toward the coarse normals' pose by `share` (none without them). */
+static hd_status repose(hd_decomposition *d, const gt_image *g, float share)
+{
+    if (!(share > 0.0f) || !g->has_coarse) return HD_OK;
+    hd_aligned_face f;
+    memset(&f, 0, sizeof f);
+    f.normal = g->coarse, f.mask = g->mask; /* borrowed */
+    return hd_face_repose(&f, d, share, NULL);
+}
+
+hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
+                           float share, hd_eval_report *rep, void (*warn)(const char *message))
+{
     memset(rep, 0, sizeof *rep);
     rep->source = source;
+    rep->repose = share;
+    if (!(share >= 0.0f && share <= 1.0f)) return hd_fail(HD_ERR_ARG, "eval: the repose share %g is not in 0..1", share);
     if ((pred_dir == NULL) == (model == NULL))
         return hd_fail(HD_ERR_ARG, "eval: give exactly one of a prediction folder and a model");
     if (source != HD_SOURCE_LNET && source != HD_SOURCE_FIT)
@@ -476,6 +495,7 @@ hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model
         hd_status e = load_gt(s, &g);
         if (e == HD_OK) {
             e = pred_dir ? load_pred(data_dir, pred_dir, s, &d) : hd_model_decompose(model, &g.input, 1, &d);
+            if (e == HD_OK) e = repose(&d, &g, share);
             if (e == HD_OK) e = fit_decomposition(&d, g.input.width, g.input.height);
             if (e == HD_OK) e = ensure_recon(&d);
             if (e == HD_OK) e = source_light(&d, &g, source);
@@ -547,6 +567,7 @@ char *hd_eval_report_json(const hd_eval_report *r)
     cJSON_AddNumberToObject(root, "skipped", (double)r->skipped);
     cJSON_AddNumberToObject(root, "kmeans_k", r->kmeans_k);
     cJSON_AddStringToObject(root, "source_light", r->source == HD_SOURCE_FIT ? "fit" : "lnet");
+    cJSON_AddNumberToObject(root, "repose", r->repose);
     cJSON *rows = cJSON_AddArrayToObject(root, "rows");
     for (int i = 0; i < r->nrows; i++) {
         const hd_eval_row *w = &r->rows[i];

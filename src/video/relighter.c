@@ -273,7 +273,7 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
         if (st != HD_OK) break;
         hd_decomposition d;
         memset(&d, 0, sizeof d);
-        st = hd_model_decompose(v->model, &f->texture, 1, &d);
+        st = hd_face_decompose(v->model, f, &d);
         if (st == HD_OK && t) st = smooth_maps(v, t, &d);
         if (st == HD_OK && info && k == 0) {
             info->has_light = 1;

@@ -299,7 +299,7 @@ hd_status serve_photo_make(serve_engine *e, const unsigned char *data, size_t n,
     pthread_mutex_lock(&e->lock);
     st = hd_photo_faces(e->aligner, e->model, &p->image, &faces, &nfaces);
     if (st == HD_OK && !(ds = hd_calloc((size_t)nfaces, sizeof *ds))) st = HD_ERR_NOMEM;
-    for (int k = 0; k < nfaces && st == HD_OK; k++) st = hd_model_decompose(e->model, &faces[k].texture, 1, &ds[k]);
+    for (int k = 0; k < nfaces && st == HD_OK; k++) st = hd_face_decompose(e->model, &faces[k], &ds[k]);
     pthread_mutex_unlock(&e->lock);
     if (st == HD_OK && !(p->faces = hd_calloc((size_t)nfaces, sizeof *p->faces))) st = HD_ERR_NOMEM;
     if (st == HD_OK) {
