@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "test.h"
+#include "test_pose.h"
 #include "core/core.h"
 #include "mesh/mesh.h"
 #include "test_models.h"
@@ -20,31 +21,11 @@
 static hd_mesh canonical;
 
 
-/* R = Rz(roll) Ry(yaw) Rx(pitch), degrees, row-major. */
-static void rotation(double yaw, double pitch, double roll, double R[9])
-{
-    double a = yaw * M_PI / 180, b = pitch * M_PI / 180, c = roll * M_PI / 180;
-    double Rx[9] = {1, 0, 0, 0, cos(b), -sin(b), 0, sin(b), cos(b)};
-    double Ry[9] = {cos(a), 0, sin(a), 0, 1, 0, -sin(a), 0, cos(a)};
-    double Rz[9] = {cos(c), -sin(c), 0, sin(c), cos(c), 0, 0, 0, 1};
-    double T[9];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            T[3 * i + j] = 0;
-            for (int k = 0; k < 3; k++) T[3 * i + j] += Ry[3 * i + k] * Rx[3 * k + j];
-        }
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            R[3 * i + j] = 0;
-            for (int k = 0; k < 3; k++) R[3 * i + j] += Rz[3 * i + k] * T[3 * k + j];
-        }
-}
-
 /* Landmarks as a FaceMesh-like model gives them: camera c = s R P, photo (cx + c_x, cy - c_y),
  * z = -c_z (MediaPipe: smaller is closer). */
 static void project(double yaw, double pitch, double roll, double s, double cx, double cy, float L[][3], double R[9])
 {
-    rotation(yaw, pitch, roll, R);
+    test_pose_rotation(yaw, pitch, roll, R);
     for (int i = 0; i < canonical.nv; i++) {
         const float *p = &canonical.pos[3 * i];
         double c[3];

@@ -10,29 +10,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include "test.h"
+#include "test_pose.h"
 #include "core/core.h"
 #include "apply/apply.h"
 #include "align/align.h"
-
-/* R = Rz(roll) Ry(yaw) Rx(pitch), degrees. */
-static void pose(double yaw, double pitch, double roll, double R[9])
-{
-    const double a = yaw * M_PI / 180, b = pitch * M_PI / 180, c = roll * M_PI / 180;
-    const double X[9] = {1, 0, 0, 0, cos(b), -sin(b), 0, sin(b), cos(b)};
-    const double Y[9] = {cos(a), 0, sin(a), 0, 1, 0, -sin(a), 0, cos(a)};
-    const double Z[9] = {cos(c), -sin(c), 0, sin(c), cos(c), 0, 0, 0, 1};
-    double T[9];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            T[3 * i + j] = 0;
-            for (int k = 0; k < 3; k++) T[3 * i + j] += Y[3 * i + k] * X[3 * k + j];
-        }
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            R[3 * i + j] = 0;
-            for (int k = 0; k < 3; k++) R[3 * i + j] += Z[3 * i + k] * T[3 * k + j];
-        }
-}
 
 static void turn(const double R[9], const float p[3], float q[3])
 {
@@ -105,7 +86,7 @@ static double worst(const hd_decomposition *d, const double R[9], float bump)
 static void test_best_rotation(void)
 {
     double R[9], F[9], S[3][3] = {{0}};
-    pose(25, -12, 7, R);
+    test_pose_rotation(25, -12, 7, R);
     for (int i = 0; i < 50; i++) {
         const float p[3] = {sinf(i * 1.3f), cosf(i * 0.7f), sinf(i * 0.3f + 1)};
         float c[3];
@@ -125,7 +106,7 @@ static void test_repose(void)
     const int S = 48;
     const double yaw = 18, pitch = -11, roll = 6;
     double R[9];
-    pose(yaw, pitch, roll, R);
+    test_pose_rotation(yaw, pitch, roll, R);
     const double full = acos(0.5 * (R[0] + R[4] + R[8] - 1)) * 180 / M_PI;
     hd_aligned_face f;
     hd_decomposition d;

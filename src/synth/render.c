@@ -109,7 +109,7 @@ void hd_synth_face_free(hd_synth_face *f)
 /* The modelled 3DMM fit of one image (the coarse normals), drawn from its own stream so that the
  * image's pose and light are the same whatever the error. With size E > 0, three zero-mean parts:
  *   pose   yaw, pitch and roll each off by a normal draw of standard deviation E * COARSE_POSE,
- *          or pose_sd degrees where that is given (>= 0), clipped at 2.5 standard deviations;
+ *          or pose_sd degrees where that is given (> 0), clipped at 2.5 standard deviations;
  *   shape  the canonical mesh deformed like a random identity, E * COARSE_SHAPE identity spreads
  *          (at most one);
  *   tilt   a smooth height field h = sum_w sin(k_w . x + phi_w) of COARSE_WAVES plane waves (1 to
@@ -146,7 +146,7 @@ static void coarse_fit_draw(const hd_synth *s, const hd_synth_subject *sub, int 
     const int V = s->mesh.nv, S = s->size;
     fit->gain = 0.0f;
     f->coarse_yaw_deg = f->yaw_deg, f->coarse_pitch_deg = f->pitch_deg, f->coarse_roll_deg = f->roll_deg;
-    if (pose_sd < 0.0f) pose_sd = COARSE_POSE * E;
+    if (!(pose_sd > 0.0f)) pose_sd = COARSE_POSE * E;
     if (!(E > 0.0f) && !(pose_sd > 0.0f)) {
         pose_matrix(f->yaw_deg, f->pitch_deg, f->roll_deg, fit->R);
         for (int v = 0; v < V; v++) rotate(fit->R, s->canon_normal + 3 * v, cn + 3 * v);
@@ -210,7 +210,7 @@ static void coarse_tilt(const coarse_fit *fit, int S, int x, int y, float c[3])
 hd_status hd_synth_render(const hd_synth *s, const hd_synth_subject *sub, int image, float pose_jitter_deg,
                           float coarse_error_deg, hd_synth_face *out)
 {
-    return hd_synth_render_fit(s, sub, image, pose_jitter_deg, coarse_error_deg, -1.0f, out);
+    return hd_synth_render_fit(s, sub, image, pose_jitter_deg, coarse_error_deg, 0.0f, out);
 }
 
 hd_status hd_synth_render_fit(const hd_synth *s, const hd_synth_subject *sub, int image, float pose_jitter_deg,
@@ -222,8 +222,8 @@ hd_status hd_synth_render_fit(const hd_synth *s, const hd_synth_subject *sub, in
     if (!(coarse_error_deg >= 0.0f && coarse_error_deg <= HD_SYNTH_COARSE_ERROR_MAX))
         return hd_fail(HD_ERR_RANGE, "synth: coarse-normal error %g outside [0, %g] degrees", coarse_error_deg,
                        HD_SYNTH_COARSE_ERROR_MAX);
-    if (!(coarse_pose_deg < 0.0f || coarse_pose_deg <= HD_SYNTH_COARSE_ERROR_MAX))
-        return hd_fail(HD_ERR_RANGE, "synth: coarse pose error %g outside [0, %g] degrees", coarse_pose_deg,
+    if (!(coarse_pose_deg <= HD_SYNTH_COARSE_ERROR_MAX))
+        return hd_fail(HD_ERR_RANGE, "synth: coarse pose error %g is not under %g degrees", coarse_pose_deg,
                        HD_SYNTH_COARSE_ERROR_MAX);
     const int S = s->size, V = s->mesh.nv;
     const size_t P = (size_t)S * S;

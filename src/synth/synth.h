@@ -43,8 +43,8 @@ void hd_synth_subject_free(hd_synth_subject *subject);
 hd_status hd_synth_render(const hd_synth *synth, const hd_synth_subject *subject, int image,
                           float pose_jitter_deg, float coarse_error_deg, hd_synth_face *out);
 /* The same with the fit's pose error given on its own: yaw, pitch and roll off by coarse_pose_deg
- * (standard deviation; a landmark fit's pose is better than E/2), or by E/2 where it is negative;
- * the shape and tilt errors stay E's. hd_synth_render is this with -1. */
+ * (standard deviation; a landmark fit's pose is better than E/2), or by E/2 where it is <= 0;
+ * the shape and tilt errors stay E's. hd_synth_render is this with 0. */
 hd_status hd_synth_render_fit(const hd_synth *synth, const hd_synth_subject *subject, int image,
                               float pose_jitter_deg, float coarse_error_deg, float coarse_pose_deg,
                               hd_synth_face *out);

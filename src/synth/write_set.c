@@ -75,12 +75,6 @@ static hd_status paste(hd_image *sheet, const hd_image *img, int cell, int x0, i
 
 /* The preview sheet: one row per subject (up to 8): albedo, ground-truth normals, shading of the
  * first image, then up to 4 images. */
-/* The fit's pose error as hd_synth_render_fit takes it: negative for the default (E / 2). */
-static float coarse_pose(const hd_synth_options *o)
-{
-    return o->coarse_pose_deg > 0.0f ? o->coarse_pose_deg : -1.0f;
-}
-
 static hd_status write_preview(const hd_synth *s, const char *out, const hd_synth_options *o)
 {
     int rows = o->subjects < PREVIEW_SUBJECTS ? o->subjects : PREVIEW_SUBJECTS;
@@ -94,7 +88,7 @@ static hd_status write_preview(const hd_synth *s, const char *out, const hd_synt
         hd_synth_subject *sub = NULL;
         st = hd_synth_subject_make(s, o->seed, rsub, &sub);
         for (int k = 0; k < imgs && st == HD_OK; k++) {
-            st = hd_synth_render_fit(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, coarse_pose(o), &f);
+            st = hd_synth_render_fit(s, sub, k, o->pose_jitter_deg, o->coarse_error_deg, o->coarse_pose_deg, &f);
             if (st == HD_OK) st = hd_synth_camera_apply(&f, &o->camera, o->seed, rsub, k, NULL);
             if (st != HD_OK) break;
             int y0 = rsub * (cell + gap);
@@ -187,7 +181,7 @@ hd_status hd_synth_write_set(const char *out, const hd_synth_options *o, hd_synt
                 snprintf(dir, sizeof dir, "%s/subject_%04d", out, s0 + j);
                 snprintf(name, sizeof name, "%04d", image);
                 hd_status e = hd_synth_render_fit(s, subs[j], image, o->pose_jitter_deg, o->coarse_error_deg,
-                                                  coarse_pose(o), &f);
+                                                  o->coarse_pose_deg, &f);
                 hd_synth_camera_record rec;
                 if (e == HD_OK) e = hd_synth_camera_apply(&f, &o->camera, o->seed, s0 + j, image, &rec);
                 if (e == HD_OK) {
