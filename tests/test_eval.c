@@ -10,6 +10,7 @@
 #include "eval/metrics.h"
 #include "synth/synth.h"
 #include "eval/eval.h"
+#include "model/model_probe.h"
 
 static void test_normals(void)
 {
@@ -283,6 +284,70 @@ static void test_run(void)
     CHECK(hd_eval_run("set", NULL, NULL, &rep, NULL) == HD_ERR_ARG);
 }
 
+/* N-Net on a shading from outside (hd_model_normals_from_shading, eval --true-shading), with the
+ * shipped model on the set test_run wrote: S-Net's own shading gives hd_model_decompose's normals
+ * and light bit for bit, at any scale the same normals, another shading other normals; a run with
+ * the row adds it and leaves the other four as they were. */
+static void test_true_shading(void)
+{
+    hd_model *model = NULL;
+    if (hd_model_load(NULL, &model) != HD_OK) {
+        fprintf(stderr, "model: %s\n", hd_error());
+        test_failures++;
+        return;
+    }
+    hd_image img = {0}, truth = {0}, scaled = {0}, rgb = {0}, zero = {0}, n = {0};
+    hd_decomposition d;
+    memset(&d, 0, sizeof d);
+    float light[HD_SH_COEFFS];
+    CHECK(hd_image_read_as("set/subject_0001/0002.png", 3, &img) == HD_OK);
+    CHECK(hd_image_read_as("set/subject_0001/0002.shading.pfm", 1, &truth) == HD_OK);
+    CHECK(hd_model_decompose(model, &img, 1, &d) == HD_OK);
+    const size_t HW = (size_t)d.shading.width * d.shading.height;
+    CHECK(hd_model_normals_from_shading(model, &img, &d.shading, NULL, &n, light) == HD_OK);
+    CHECK(n.data && n.width == d.normal.width && n.channels == 3);
+    CHECK(n.data && memcmp(n.data, d.normal.data, 3 * HW * sizeof(float)) == 0);
+    CHECK(memcmp(light, d.light, sizeof light) == 0);
+    hd_image_free(&n);
+    CHECK(hd_image_alloc(&scaled, d.shading.width, d.shading.height, 1) == HD_OK);
+    for (size_t p = 0; scaled.data && p < HW; p++) scaled.data[p] = 3.0f * d.shading.data[p];
+    CHECK(hd_model_normals_from_shading(model, &img, &scaled, NULL, &n, NULL) == HD_OK);
+    double worst = 0, moved = 0;
+    for (size_t p = 0; n.data && p < 3 * HW; p++) worst = fmax(worst, fabs(n.data[p] - d.normal.data[p]));
+    CHECK(n.data && worst < 1e-4);
+    hd_image_free(&n);
+    CHECK(hd_model_normals_from_shading(model, &img, &truth, NULL, &n, NULL) == HD_OK);
+    for (size_t p = 0; n.data && p < 3 * HW; p++) moved += fabs(n.data[p] - d.normal.data[p]);
+    fprintf(stderr, "N-Net on S-Net's shading x 3: %.2g off; on the true shading: %.4f mean change\n", worst,
+            moved / (3.0 * (double)HW));
+    CHECK(moved / (3.0 * (double)HW) > 1e-3);
+    hd_image_free(&n);
+    /* refused: a shading of 3 channels, one with no positive mean; nothing is left allocated */
+    CHECK(hd_image_convert(&truth, 3, &rgb) == HD_OK);
+    CHECK(hd_model_normals_from_shading(model, &img, &rgb, NULL, &n, NULL) == HD_ERR_ARG && !n.data);
+    CHECK(hd_image_alloc(&zero, truth.width, truth.height, 1) == HD_OK);
+    CHECK(hd_model_normals_from_shading(model, &img, &zero, NULL, &n, NULL) == HD_ERR_ARG && !n.data);
+    /* the run: a fifth row with normals only, the first four unchanged; with predictions, refused */
+    hd_eval_report plain, with;
+    const hd_eval_options po = {HD_SOURCE_LNET, 0.0f, 0}, wo = {HD_SOURCE_LNET, 0.0f, 1};
+    CHECK(hd_eval_run_options("set", NULL, model, &po, &plain, NULL) == HD_OK);
+    CHECK(hd_eval_run_options("set", NULL, model, &wo, &with, NULL) == HD_OK);
+    CHECK(plain.nrows == 4 && with.nrows == 5 && with.true_shading && !plain.true_shading);
+    CHECK(memcmp(plain.rows, with.rows, 4 * sizeof plain.rows[0]) == 0);
+    const hd_eval_row *t = &with.rows[4];
+    CHECK(t->has_normal && !t->has_albedo && !t->has_shading && !t->has_light && !t->has_recon);
+    CHECK(t->normal_mean > 0.1 && t->normal_mean < 60.0 && t->normal_mean != with.rows[0].normal_mean);
+    CHECK(strcmp(t->name, "N-Net on true shading") == 0);
+    fprintf(stderr, "eval --true-shading: %.2f degrees (S-Net's shading %.2f)\n", t->normal_mean, with.rows[0].normal_mean);
+    char *json = hd_eval_report_json(&with);
+    CHECK(json && strstr(json, "\"N-Net on true shading\""));
+    free(json);
+    CHECK(hd_eval_run_options("set", "pred", NULL, &wo, &with, NULL) == HD_ERR_ARG);
+    hd_image_free(&img), hd_image_free(&truth), hd_image_free(&scaled), hd_image_free(&rgb), hd_image_free(&zero);
+    hd_decomposition_free(&d);
+    hd_model_free(model);
+}
+
 int main(void)
 {
     test_use_source_models(0);
@@ -291,5 +356,6 @@ int main(void)
     test_kmeans();
     test_light_accuracy();
     test_run();
+    test_true_shading();
     return test_summary("test_eval");
 }

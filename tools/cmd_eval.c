@@ -258,7 +258,7 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
 /* What `hdnet eval` was asked: its options, DATA, and the relighting they describe. */
 typedef struct eval_args {
     const char *model_path, *pred, *out, *rule, *heldout, *sheets, *source, *white_balance, *ml_lights;
-    int threads, quiet, photos, pairs, limit, json, multilight, refs, free_level;
+    int threads, quiet, photos, pairs, limit, json, multilight, refs, free_level, true_shading;
     float guard, repose;
     const char *data;
     hd_photo_rule how; /* from rule, source and guard (eval_check) */
@@ -286,6 +286,9 @@ static int eval_check(const cli_cmd_spec *spec, eval_args *a, const char *surplu
     if (!(a->repose >= 0.0f && a->repose <= 1.0f)) return cli_usage_error(spec, "--repose wants 0..1, got %g", a->repose);
     if (a->repose > 0 && (a->pairs || a->photos || a->multilight))
         return cli_usage_error(spec, "--repose goes with the ground-truth evaluation (photos always take half the turn)");
+    if (a->true_shading && (a->pairs || a->photos || a->multilight || a->pred))
+        return cli_usage_error(spec, "--true-shading goes with a model's ground-truth evaluation, not --pred, --photos, "
+                                     "--pairs or --multilight");
     if (a->white_balance && (a->pairs || a->photos || a->multilight))
         return cli_usage_error(spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
     return 0;
@@ -342,8 +345,8 @@ static int run_ground_truth(const cli_cmd_spec *spec, const eval_args *a, const 
     }
     /* the ground-truth evaluation scores L-Net's light unless told otherwise (SPEC section 7) */
     hd_eval_report rep;
-    hd_status st = hd_eval_run_with(a->data, a->pred, model, a->source ? a->how.source : HD_SOURCE_LNET, a->repose,
-                                    &rep, warn);
+    const hd_eval_options o = {a->source ? a->how.source : HD_SOURCE_LNET, a->repose, a->true_shading};
+    hd_status st = hd_eval_run_options(a->data, a->pred, model, &o, &rep, warn);
     hd_model_free(model);
     if (st != HD_OK) return cli_report("eval");
     snprintf(rep.rows[0].name, sizeof rep.rows[0].name, "%s", a->pred ? "predictions" : "hdnet model");
@@ -385,6 +388,9 @@ int cmd_eval(int argc, char **argv)
         {"repose", 0, CLI_OPT_FLOAT, &a.repose, "S",
          "the ground-truth evaluation: first turn the model's normals by S (0..1) of the rotation onto each image's "
          "coarse normals' pose, as photos are (docs/evaluation.md; default 0)"},
+        {"true-shading", 0, CLI_OPT_FLAG, &a.true_shading, NULL,
+         "the ground-truth evaluation of a model: add a row of the normals N-Net gives when it reads the set's true "
+         "shading instead of S-Net's (docs/synthetic-data.md)"},
         CLI_OPT_WHITE_BALANCE_ROW(a.white_balance),
         {"guard", 0, CLI_OPT_FLOAT, &a.guard, "G",
          "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "

@@ -27,7 +27,7 @@ typedef struct hd_eval_row {
  * (NAME.normal.png) as normals; the least-squares light of the true shading on the coarse normals
  * (its light and shading); the per-image mean colour of the input as albedo. An image whose files
  * are missing or broken is reported through warn (may be NULL) and skipped. */
-#define HD_EVAL_MAX_ROWS 4
+#define HD_EVAL_MAX_ROWS 5
 typedef struct hd_eval_report {
     int nrows;
     hd_eval_row rows[HD_EVAL_MAX_ROWS];
@@ -35,6 +35,7 @@ typedef struct hd_eval_report {
     int kmeans_k;
     hd_source_light source; /* the prediction's light that the lighting classification scored */
     float repose;           /* the share of the turn to the coarse normals' pose the normals took (0: none) */
+    int true_shading;       /* row 4 is N-Net on the true shading (hd_eval_options.true_shading) */
 } hd_eval_report;
 hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *model, hd_eval_report *report,
                       void (*warn)(const char *message));
@@ -50,6 +51,19 @@ hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model
  * it (docs/evaluation.md, "The head's pose"). Images without coarse normals are scored as they are. */
 hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                            float repose, hd_eval_report *report, void (*warn)(const char *message));
+/* Everything an evaluation can be told beyond its data: the prediction's light (`source`, as
+ * hd_eval_run_light), the share of the turn (`repose`, as hd_eval_run_with) and, with a model,
+ * `true_shading`: a fifth row, "N-Net on true shading", whose normals are the model's N-Net run on
+ * the set's true shading (hd_model_normals_from_shading; scaled to S-Net's level, then turned as the
+ * prediction's) instead of S-Net's: how much of the normals' error is N-Net's own and how much the
+ * shading it reads (docs/synthetic-data.md). */
+typedef struct hd_eval_options {
+    hd_source_light source;
+    float repose;
+    int true_shading;
+} hd_eval_options;
+hd_status hd_eval_run_options(const char *data_dir, const char *pred_dir, hd_model *model, const hd_eval_options *o,
+                              hd_eval_report *report, void (*warn)(const char *message));
 /* The report as JSON: the text (malloc'ed; NULL with the reason set when out of memory), or
  * written to path atomically. */
 char *hd_eval_report_json(const hd_eval_report *report);

@@ -13,6 +13,7 @@
 #include "eval/eval_json.h"
 #include "eval/metrics.h"
 #include "eval/eval.h"
+#include "model/model_probe.h"
 
 static const double THRESHOLDS[HD_EVAL_THRESHOLDS] = {20.0, 25.0, 30.0};
 
@@ -348,11 +349,11 @@ static hd_status ensure_recon(hd_decomposition *d)
     return HD_OK;
 }
 
-enum { ROW_PRED, ROW_COARSE, ROW_LSLIGHT, ROW_MEANCOLOR };
+enum { ROW_PRED, ROW_COARSE, ROW_LSLIGHT, ROW_MEANCOLOR, ROW_TRUE_SHADING, ROWS };
 
 /* Scores one image against prediction d (already at the ground truth's size) and adds the
  * baselines; appends the lights. */
-static hd_status score(const gt_image *g, const hd_decomposition *d, hd_eval_sums sums[4], float *gt_light,
+static hd_status score(const gt_image *g, const hd_decomposition *d, hd_eval_sums sums[ROWS], float *gt_light,
                        float *pred_light, float *ls_light, int *has_ls)
 {
     const int npix = g->input.width * g->input.height;
@@ -398,7 +399,7 @@ static hd_status score(const gt_image *g, const hd_decomposition *d, hd_eval_sum
 typedef struct image_result {
     hd_status status;
     char *message; /* the reason, when status != HD_OK */
-    hd_eval_sums sums[4];
+    hd_eval_sums sums[ROWS];
     float gt_light[HD_SH_COEFFS], pred_light[HD_SH_COEFFS], ls_light[HD_SH_COEFFS];
     int has_ls;
 } image_result;
@@ -457,12 +458,41 @@ static hd_status repose(hd_decomposition *d, const gt_image *g, float share)
 hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                            float share, hd_eval_report *rep, void (*warn)(const char *message))
 {
+    const hd_eval_options o = {source, share, 0};
+    return hd_eval_run_options(data_dir, pred_dir, model, &o, rep, warn);
+}
+
+/* Row ROW_TRUE_SHADING: the model's N-Net on the true shading, turned as the prediction is. */
+static hd_status score_true_shading(hd_model *model, const gt_image *g, float share, hd_eval_sums *sums)
+{
+    hd_decomposition t;
+    memset(&t, 0, sizeof t);
+    hd_status st = hd_model_normals_from_shading(model, &g->input, &g->shading, &g->mask, &t.normal, NULL);
+    hd_image sized = {0};
+    if (st == HD_OK && (t.normal.width != g->input.width || t.normal.height != g->input.height)) {
+        st = hd_normal_resize(&t.normal, g->input.width, g->input.height, &sized);
+        if (st == HD_OK) hd_image_free(&t.normal), t.normal = sized;
+    }
+    if (st == HD_OK) st = repose(&t, g, share);
+    if (st == HD_OK) hd_eval_add_normals(sums, t.normal.data, g->normal.data, g->mask.data, g->input.width * g->input.height);
+    hd_image_free(&t.normal);
+    return st;
+}
+
+hd_status hd_eval_run_options(const char *data_dir, const char *pred_dir, hd_model *model, const hd_eval_options *o,
+                              hd_eval_report *rep, void (*warn)(const char *message))
+{
     memset(rep, 0, sizeof *rep);
+    const hd_source_light source = o->source;
+    const float share = o->repose;
     rep->source = source;
     rep->repose = share;
+    rep->true_shading = o->true_shading != 0;
     if (!(share >= 0.0f && share <= 1.0f)) return hd_fail(HD_ERR_ARG, "eval: the repose share %g is not in 0..1", share);
     if ((pred_dir == NULL) == (model == NULL))
         return hd_fail(HD_ERR_ARG, "eval: give exactly one of a prediction folder and a model");
+    if (o->true_shading && !model)
+        return hd_fail(HD_ERR_ARG, "eval: N-Net on the true shading needs a model, not a prediction folder");
     if (source != HD_SOURCE_LNET && source != HD_SOURCE_FIT)
         return hd_fail(HD_ERR_ARG, "eval: unknown source light %d", (int)source);
     hd_dataset ds;
@@ -476,7 +506,7 @@ hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model 
         hd_dataset_free(&ds);
         return HD_ERR_NOMEM;
     }
-    hd_eval_sums sums[4];
+    hd_eval_sums sums[ROWS];
     memset(sums, 0, sizeof sums);
     long scored = 0, nls = 0;
     /* Each image is scored into its own slot (in parallel when reading predictions from disk; a
@@ -500,6 +530,7 @@ hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model 
             if (e == HD_OK) e = ensure_recon(&d);
             if (e == HD_OK) e = source_light(&d, &g, source);
             if (e == HD_OK) e = score(&g, &d, ir->sums, ir->gt_light, ir->pred_light, ir->ls_light, &ir->has_ls);
+            if (e == HD_OK && rep->true_shading) e = score_true_shading(model, &g, share, &ir->sums[ROW_TRUE_SHADING]);
             hd_decomposition_free(&d);
             gt_free(&g);
         }
@@ -515,7 +546,7 @@ hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model 
             free(ir->message);
             continue;
         }
-        for (int r = 0; r < 4; r++) sums_add(&sums[r], &ir->sums[r]);
+        for (int r = 0; r < ROWS; r++) sums_add(&sums[r], &ir->sums[r]);
         memcpy(gt_l + (size_t)scored * HD_SH_COEFFS, ir->gt_light, sizeof ir->gt_light);
         memcpy(pred_l + (size_t)scored * HD_SH_COEFFS, ir->pred_light, sizeof ir->pred_light);
         scored++;
@@ -530,9 +561,10 @@ hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model 
     if (st == HD_OK) {
         rep->images = scored;
         rep->kmeans_k = scored < HD_EVAL_KMEANS_K ? (int)scored : HD_EVAL_KMEANS_K;
-        static const char *const names[4] = {"prediction", "coarse normals", "LS light on coarse normals",
-                                             "mean colour albedo"};
-        for (int r = 0; r < 4; r++) {
+        static const char *const names[ROWS] = {"prediction", "coarse normals", "LS light on coarse normals",
+                                                "mean colour albedo", "N-Net on true shading"};
+        const int nrows = rep->true_shading ? ROWS : ROW_TRUE_SHADING;
+        for (int r = 0; r < nrows; r++) {
             snprintf(rep->rows[r].name, sizeof rep->rows[r].name, "%s", names[r]);
             hd_eval_row_from_sums(&sums[r], &rep->rows[r]);
         }
@@ -544,7 +576,7 @@ hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model 
                                         &rep->rows[ROW_LSLIGHT].light_accuracy);
             rep->rows[ROW_LSLIGHT].has_light = st == HD_OK;
         }
-        rep->nrows = 4;
+        rep->nrows = nrows;
     }
     free(gt_l), free(pred_l), free(ls_gt), free(ls_l);
     hd_dataset_free(&ds);

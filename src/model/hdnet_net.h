@@ -149,13 +149,14 @@ hd_status hd_net_create(hd_net *net, const hd_net_config *cfg, int B, hd_net_mod
 hd_status hd_net_create_run(hd_net *net, const hd_net_config *cfg, int B, hd_conv_path path, const float *weights);
 void hd_net_free(hd_net *net);
 
-/* How one pass runs beyond the network's own state, for the benchmarks and the gradient checks;
+/* How one pass runs beyond the network's own state, for the benchmarks, the gradient checks and the
+ * probes of model_probe.h;
  * a NULL pass (inference, training) is a plain one. The trainer owns one (hd_trainer.pass). */
 typedef struct hd_net_pass {
     hd_net_profile *profile;   /* benchmarks: when not NULL, the pass adds its stage times here */
     const float *n_input_hold; /* gradient checks: when not NULL, N-Net reads this (B, 1, HW) instead of
                                 * S, so that a finite difference sees S detached from N-Net as the
-                                * analytic gradient does */
+                                * analytic gradient does; probes: N-Net on a shading from outside */
 } hd_net_pass;
 
 /* Forward of net->input: albedo, shading, normal, light (and everything backward needs). */

@@ -4,11 +4,13 @@
  * batch size from the pool, or makes one, and puts it back when done. So any number of threads may
  * decompose with one model at once; each gets activations of its own, and a call's results depend
  * only on its inputs (the batch size follows the call, not the pool). */
+#include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include "model/checkpoint.h"
 #include "model/white_balance.h"
+#include "model/model_probe.h"
 
 #define HD_DECOMPOSE_BATCH 4
 
@@ -247,5 +249,74 @@ hd_status hd_model_decompose(hd_model *model, const hd_image *images, int count,
 fail:
     give_back(model, r);
     for (int i = 0; i < count; i++) hd_decomposition_free(&out[i]);
+    return s;
+}
+
+/* The given shading, at the model's size, scaled to S-Net's mean over the mask, into dst (HW). */
+static hd_status held_shading(const hd_image *shading, const hd_image *mask, const float *predicted, int size, float *dst)
+{
+    hd_image sized = {0}, msized = {0};
+    const hd_image *cur = shading, *m = mask;
+    hd_status s = HD_OK;
+    if (cur->width != size || cur->height != size) {
+        if ((s = hd_image_resize(cur, size, size, &sized)) != HD_OK) goto done;
+        cur = &sized;
+    }
+    if (m && (m->width != size || m->height != size)) {
+        if ((s = hd_image_resize(m, size, size, &msized)) != HD_OK) goto done;
+        m = &msized;
+    }
+    const size_t HW = (size_t)size * size;
+    double given = 0, own = 0;
+    for (size_t p = 0; p < HW; p++)
+        if (!m || m->data[p] > 0.5f) given += cur->data[p], own += predicted[p];
+    if (!(given > 0) || !isfinite(given)) {
+        s = hd_fail(HD_ERR_ARG, "the given shading has no positive mean over the mask");
+        goto done;
+    }
+    const float k = (float)(own / given);
+    for (size_t p = 0; p < HW; p++) dst[p] = cur->data[p] * k;
+done:
+    hd_image_free(&sized);
+    hd_image_free(&msized);
+    return s;
+}
+
+hd_status hd_model_normals_from_shading(hd_model *model, const hd_image *image, const hd_image *shading,
+                                        const hd_image *mask, hd_image *normal, float light[HD_SH_COEFFS])
+{
+    memset(normal, 0, sizeof *normal);
+    if (!model || !image || !shading || !shading->data || shading->channels != 1 ||
+        (mask && (!mask->data || mask->channels != 1 || mask->width != shading->width || mask->height != shading->height)))
+        return hd_fail(HD_ERR_ARG, "hd_model_normals_from_shading: a missing argument, or a shading or mask not of 1 channel "
+                                   "and one size");
+    hd_apply_threads();
+    run_state *r;
+    hd_status s = take_run_state(model, 1, &r);
+    if (s != HD_OK) return s;
+    hd_net *net = &r->net;
+    const int size = model->cfg.size;
+    const size_t HW = (size_t)size * size;
+    float tint[3], *hold = hd_malloc(HW * sizeof(float));
+    if (!hold) s = HD_ERR_NOMEM;
+    if (s == HD_OK) s = load_input(image, size, net->input, 0);
+    if (s == HD_OK) s = balance_input(model, net->input, tint);
+    if (s == HD_OK) {
+        hd_net_forward(net, NULL);
+        s = held_shading(shading, mask, net->shading, size, hold);
+    }
+    if (s == HD_OK) {
+        hd_net_pass pass;
+        memset(&pass, 0, sizeof pass);
+        pass.n_input_hold = hold;
+        hd_net_forward(net, &pass);
+        s = hd_image_alloc(normal, size, size, 3);
+    }
+    if (s == HD_OK) {
+        memcpy(normal->data, net->normal, 3 * HW * sizeof(float));
+        if (light) memcpy(light, net->light, HD_SH_COEFFS * sizeof(float));
+    }
+    free(hold);
+    give_back(model, r);
     return s;
 }
