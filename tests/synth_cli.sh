@@ -89,6 +89,12 @@ grep -q '"images":	2' out.log || { cat out.log >&2; fail "eval --pred of a flat 
 expect_saying 0 "wrote m.safetensors" "$HDNET" init --width 8 --size 32 --seed 1 -o m.safetensors
 expect_saying 0 "^hdnet model " "$HDNET" eval set -m m.safetensors
 grep "^hdnet model" out.log | grep -q -- " - " && { cat out.log >&2; fail "the model's row has empty columns"; }
+# --true-shading: a fifth row, N-Net on the set's true shading, with its normals only
+expect_saying 0 "^N-Net on true shading " "$HDNET" eval set -m m.safetensors --true-shading -o ts.json
+grep "^N-Net on true shading" out.log | grep -q -- " - " || { cat out.log >&2; fail "the true-shading row fills more than normals"; }
+grep -q '"name":	"N-Net on true shading"' ts.json || fail "ts.json lacks the true-shading row"
+grep -q "N-Net on true shading" eval.json && fail "eval without --true-shading has its row"
+expect_saying 2 "--true-shading goes with a model" "$HDNET" eval set --pred pred --true-shading
 
 # usage errors and failures
 expect_saying 2 "subjects" "$HDNET" synth x --per-subject 2

@@ -25,7 +25,8 @@ typedef struct hd_eval_row {
  * .shading.pfm or .shading.png (s/2), .normal.png, .light.txt, .recon.png) or made by `model`
  * (exactly one of the two). Row 0 is the prediction; then the baselines: the coarse normals
  * (NAME.normal.png) as normals; the least-squares light of the true shading on the coarse normals
- * (its light and shading); the per-image mean colour of the input as albedo. An image whose files
+ * (its light and shading); the per-image mean colour of the input as albedo; with
+ * hd_eval_options.true_shading, N-Net on the true shading (below). An image whose files
  * are missing or broken is reported through warn (may be NULL) and skipped. */
 #define HD_EVAL_MAX_ROWS 5
 typedef struct hd_eval_report {

@@ -483,6 +483,7 @@ hd_status hd_eval_run_options(const char *data_dir, const char *pred_dir, hd_mod
                               hd_eval_report *rep, void (*warn)(const char *message))
 {
     memset(rep, 0, sizeof *rep);
+    if (!o) return hd_fail(HD_ERR_ARG, "eval: no options");
     const hd_source_light source = o->source;
     const float share = o->repose;
     rep->source = source;
