@@ -327,11 +327,12 @@ static void test_true_shading(void)
     CHECK(hd_model_normals_from_shading(model, &img, &rgb, NULL, &n, NULL) == HD_ERR_ARG && !n.data);
     CHECK(hd_image_alloc(&zero, truth.width, truth.height, 1) == HD_OK);
     CHECK(hd_model_normals_from_shading(model, &img, &zero, NULL, &n, NULL) == HD_ERR_ARG && !n.data);
-    /* the run: a fifth row with normals only, the first four unchanged; with predictions, refused */
+    /* the run (one subject, 3 images): a fifth row with normals only, the first four unchanged; with
+     * predictions, refused */
     hd_eval_report plain, with;
     const hd_eval_options po = {HD_SOURCE_LNET, 0.0f, 0}, wo = {HD_SOURCE_LNET, 0.0f, 1};
-    CHECK(hd_eval_run_options("set", NULL, model, &po, &plain, NULL) == HD_OK);
-    CHECK(hd_eval_run_options("set", NULL, model, &wo, &with, NULL) == HD_OK);
+    CHECK(hd_eval_run_options("set/subject_0001", NULL, model, &po, &plain, NULL) == HD_OK);
+    CHECK(hd_eval_run_options("set/subject_0001", NULL, model, &wo, &with, NULL) == HD_OK);
     CHECK(plain.nrows == 4 && with.nrows == 5 && with.true_shading && !plain.true_shading);
     CHECK(memcmp(plain.rows, with.rows, 4 * sizeof plain.rows[0]) == 0);
     const hd_eval_row *t = &with.rows[4];
