@@ -285,8 +285,8 @@ done:
 hd_status hd_model_normals_from_shading(hd_model *model, const hd_image *image, const hd_image *shading,
                                         const hd_image *mask, hd_image *normal, float light[HD_SH_COEFFS])
 {
-    memset(normal, 0, sizeof *normal);
-    if (!model || !image || !shading || !shading->data || shading->channels != 1 ||
+    if (normal) memset(normal, 0, sizeof *normal);
+    if (!model || !image || !normal || !shading || !shading->data || shading->channels != 1 ||
         (mask && (!mask->data || mask->channels != 1 || mask->width != shading->width || mask->height != shading->height)))
         return hd_fail(HD_ERR_ARG, "hd_model_normals_from_shading: a missing argument, or a shading or mask not of 1 channel "
                                    "and one size");
