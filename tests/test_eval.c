@@ -263,8 +263,8 @@ static void test_run(void)
      * (the exact pose here, the canonical mesh's shape) move a little, not far; nothing else moves;
      * a share of 0 is the plain run and one outside 0..1 is refused */
     hd_eval_report turned, none;
-    CHECK(hd_eval_run_with("set", "pred", NULL, HD_SOURCE_LNET, 1.0f, &turned, NULL) == HD_OK);
-    CHECK(hd_eval_run_with("set", "pred", NULL, HD_SOURCE_LNET, 0.0f, &none, NULL) == HD_OK);
+    CHECK(hd_eval_run_options("set", "pred", NULL, &(hd_eval_options){HD_SOURCE_LNET, 1.0f, 0}, &turned, NULL) == HD_OK);
+    CHECK(hd_eval_run_options("set", "pred", NULL, &(hd_eval_options){HD_SOURCE_LNET, 0.0f, 0}, &none, NULL) == HD_OK);
     fprintf(stderr, "eval --repose 1 on the true normals: %.3f degrees off the truth (%.4f unturned)\n",
             turned.rows[0].normal_mean, none.rows[0].normal_mean);
     CHECK(turned.repose == 1.0f && none.repose == 0.0f);
@@ -274,8 +274,8 @@ static void test_run(void)
     json = hd_eval_report_json(&turned);
     CHECK(json && strstr(json, "\"repose\":\t1"));
     free(json);
-    CHECK(hd_eval_run_with("set", "pred", NULL, HD_SOURCE_LNET, 1.5f, &turned, NULL) == HD_ERR_ARG);
-    CHECK(hd_eval_run_with("set", "pred", NULL, HD_SOURCE_LNET, NAN, &turned, NULL) == HD_ERR_ARG);
+    CHECK(hd_eval_run_options("set", "pred", NULL, &(hd_eval_options){HD_SOURCE_LNET, 1.5f, 0}, &turned, NULL) == HD_ERR_ARG);
+    CHECK(hd_eval_run_options("set", "pred", NULL, &(hd_eval_options){HD_SOURCE_LNET, NAN, 0}, &turned, NULL) == HD_ERR_ARG);
     /* a missing prediction is skipped with a reason; no prediction at all is an error */
     CHECK(remove("pred/subject_0002/0001.albedo.png") == 0);
     CHECK(hd_eval_run("set", "pred", NULL, &rep, NULL) == HD_OK);

@@ -46,14 +46,12 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
  * the light the relighting rule takes as the face's own. Only the light column changes. */
 hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                             hd_eval_report *report, void (*warn)(const char *message));
-/* hd_eval_run_light with the predicted normals first turned by `repose` (0..1) of the rotation that
- * carries them onto the image's coarse normals (hd_face_repose, what the photo paths do with
- * HD_REPOSE_SHARE): where the coarse normals' pose is a landmark fit's, how much the model gains from
- * it (docs/evaluation.md, "The head's pose"). Images without coarse normals are scored as they are. */
-hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
-                           float repose, hd_eval_report *report, void (*warn)(const char *message));
 /* Everything an evaluation can be told beyond its data: the prediction's light (`source`, as
- * hd_eval_run_light), the share of the turn (`repose`, as hd_eval_run_with) and, with a model,
+ * hd_eval_run_light); `repose` (0..1): the predicted normals first turned by that share of the
+ * rotation that carries them onto the image's coarse normals (hd_face_repose, what the photo paths
+ * do with HD_REPOSE_SHARE; images without coarse normals are scored as they are): where the coarse
+ * normals' pose is a landmark fit's, how much the model gains from it (docs/evaluation.md, "The
+ * head's pose"); and, with a model,
  * `true_shading`: a fifth row, "N-Net on true shading", whose normals are the model's N-Net run on
  * the set's true shading (hd_model_normals_from_shading; scaled to S-Net's level, then turned as the
  * prediction's) instead of S-Net's: how much of the normals' error is N-Net's own and how much the

@@ -273,21 +273,28 @@ static hd_status fit_size(hd_image *img, int w, int h)
 }
 
 /* Brings a decomposition to the ground truth's size (normals renormalised after resampling). */
-static hd_status fit_decomposition(hd_decomposition *d, int w, int h)
+/* Normals n resized to w x h and made unit again where they were resized. */
+static hd_status fit_normals(hd_image *n, int w, int h)
 {
-    int resized = d->normal.width != w || d->normal.height != h;
-    hd_status st = fit_size(&d->albedo, w, h);
-    if (st == HD_OK) st = fit_size(&d->shading, w, h);
-    if (st == HD_OK) st = fit_size(&d->normal, w, h);
-    if (st == HD_OK && d->reconstruction.data) st = fit_size(&d->reconstruction, w, h);
+    const int resized = n->width != w || n->height != h;
+    hd_status st = fit_size(n, w, h);
     if (st == HD_OK && resized) {
         size_t P = (size_t)w * h;
-        float *n = d->normal.data;
+        float *v = n->data;
         for (size_t i = 0; i < P; i++) {
-            float l = sqrtf(n[i] * n[i] + n[P + i] * n[P + i] + n[2 * P + i] * n[2 * P + i]);
-            if (l > 1e-12f) n[i] /= l, n[P + i] /= l, n[2 * P + i] /= l;
+            float l = sqrtf(v[i] * v[i] + v[P + i] * v[P + i] + v[2 * P + i] * v[2 * P + i]);
+            if (l > 1e-12f) v[i] /= l, v[P + i] /= l, v[2 * P + i] /= l;
         }
     }
+    return st;
+}
+
+static hd_status fit_decomposition(hd_decomposition *d, int w, int h)
+{
+    hd_status st = fit_size(&d->albedo, w, h);
+    if (st == HD_OK) st = fit_size(&d->shading, w, h);
+    if (st == HD_OK) st = fit_normals(&d->normal, w, h);
+    if (st == HD_OK && d->reconstruction.data) st = fit_size(&d->reconstruction, w, h);
     return st;
 }
 
@@ -442,7 +449,8 @@ hd_status hd_eval_run(const char *data_dir, const char *pred_dir, hd_model *mode
 hd_status hd_eval_run_light(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
                             hd_eval_report *rep, void (*warn)(const char *message))
 {
-    return hd_eval_run_with(data_dir, pred_dir, model, source, 0.0f, rep, warn);
+    const hd_eval_options o = {source, 0.0f, 0};
+    return hd_eval_run_options(data_dir, pred_dir, model, &o, rep, warn);
 }
 
 /* The prediction's normals turned toward the coarse normals' pose by `share` (none without them). */
@@ -455,24 +463,13 @@ static hd_status repose(hd_decomposition *d, const gt_image *g, float share)
     return hd_face_repose(&f, d, share, NULL);
 }
 
-hd_status hd_eval_run_with(const char *data_dir, const char *pred_dir, hd_model *model, hd_source_light source,
-                           float share, hd_eval_report *rep, void (*warn)(const char *message))
-{
-    const hd_eval_options o = {source, share, 0};
-    return hd_eval_run_options(data_dir, pred_dir, model, &o, rep, warn);
-}
-
 /* Row ROW_TRUE_SHADING: the model's N-Net on the true shading, turned as the prediction is. */
 static hd_status score_true_shading(hd_model *model, const gt_image *g, float share, hd_eval_sums *sums)
 {
     hd_decomposition t;
     memset(&t, 0, sizeof t);
     hd_status st = hd_model_normals_from_shading(model, &g->input, &g->shading, &g->mask, &t.normal, NULL);
-    hd_image sized = {0};
-    if (st == HD_OK && (t.normal.width != g->input.width || t.normal.height != g->input.height)) {
-        st = hd_normal_resize(&t.normal, g->input.width, g->input.height, &sized);
-        if (st == HD_OK) hd_image_free(&t.normal), t.normal = sized;
-    }
+    if (st == HD_OK) st = fit_normals(&t.normal, g->input.width, g->input.height);
     if (st == HD_OK) st = repose(&t, g, share);
     if (st == HD_OK) hd_eval_add_normals(sums, t.normal.data, g->normal.data, g->mask.data, g->input.width * g->input.height);
     hd_image_free(&t.normal);
