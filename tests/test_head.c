@@ -80,7 +80,7 @@ static void test_head(void)
 
     /* a light from the side: the face's field as the rule makes it, extended over the head */
     hd_image tex_field = {0}, coverage = {0};
-    CHECK(hd_ratio_field(&d, &f->mask, f->texture.width, own, 0.0f, &target, &tex_field) == HD_OK);
+    CHECK(hd_ratio_field(&d, &f->mask, f->texture.width, own, 0.0f, &target, f->rotation, &tex_field) == HD_OK);
     CHECK(hd_warp_back(f, &tex_field, NULL, &field, &coverage) == HD_OK);
     CHECK(hd_field_fill(field.data, coverage.data, W, H) == HD_OK);
     float lo = 1e9f, hi = -1e9f;

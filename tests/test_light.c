@@ -659,8 +659,32 @@ static void test_shade_grad(void)
     }
 }
 
+
+/* hd_light_distant_part of ambient + a distant light gives back the direction and the distant
+ * light alone (known vectors of hd_light_from_direction); of an ambient light, nothing. */
+static void test_distant_part(void)
+{
+    static const float cases[][4] = {{0, 0, 1.5f, 0.5f}, {-50, 0, 1, 0}, {35, 40, 2, 0.3f}, {0, -35, 0.7f, 1}, {120, 10, 1, 0.2f}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        float light[HD_SH_COEFFS], want[HD_SH_COEFFS], part[HD_SH_COEFFS], dir[3];
+        hd_light_from_direction(cases[c][0], cases[c][1], cases[c][2], cases[c][3], light);
+        hd_light_from_direction(cases[c][0], cases[c][1], cases[c][2], 0, want);
+        hd_light_distant_part(light, dir, part);
+        const float az = cases[c][0] * (float)M_PI / 180, el = cases[c][1] * (float)M_PI / 180;
+        CHECK_NEAR(dir[0], cosf(el) * sinf(az), 1e-5);
+        CHECK_NEAR(dir[1], sinf(el), 1e-5);
+        CHECK_NEAR(dir[2], cosf(el) * cosf(az), 1e-5);
+        for (int k = 0; k < HD_SH_COEFFS; k++) CHECK_NEAR(part[k], want[k], 1e-5);
+    }
+    float flat[HD_SH_COEFFS] = {1}, part[HD_SH_COEFFS], dir[3];
+    hd_light_distant_part(flat, dir, part);
+    CHECK(dir[0] == 0 && dir[1] == 0 && dir[2] == 1);
+    for (int k = 0; k < HD_SH_COEFFS; k++) CHECK(part[k] == 0);
+}
+
 int main(void)
 {
+    test_distant_part();
     test_vectors();
     test_constant_and_linear();
     test_fit();

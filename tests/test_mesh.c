@@ -249,11 +249,98 @@ static void test_normals(void)
     CHECK_NEAR(nn[2], 2 / len, 1e-6);
 }
 
+
+/* A ridge on a plane, lit from one side at 30 degrees above the plane (cast_shadow.c): the plane
+ * beyond the ridge is in its shadow out to h / tan 30 = 1.73 from the crest, the far slope too (it
+ * rises faster than the ray), everything else sees the light; turning the ridge and the light
+ * together turns nothing. x: columns -4 -1 0 1 4 (z 0 0 1 0 0), y: -2 and 2; u = (x + 4) / 8. */
+static void ridge_mesh(hd_mesh *m, float *pos, float *uv, int *tri)
+{
+    static const float xs[5] = {-4, -1, 0, 1, 4}, zs[5] = {0, 0, 1, 0, 0};
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 5; c++) {
+            const int i = 5 * r + c;
+            pos[3 * i] = xs[c], pos[3 * i + 1] = r ? 2.0f : -2.0f, pos[3 * i + 2] = zs[c];
+            uv[2 * i] = (xs[c] + 4) / 8, uv[2 * i + 1] = r ? 0.0f : 1.0f;
+        }
+    for (int c = 0; c < 4; c++) {
+        int *t = tri + 6 * c;
+        t[0] = c, t[1] = c + 1, t[2] = c + 6, t[3] = c, t[4] = c + 6, t[5] = c + 5;
+    }
+    *m = (hd_mesh){10, 8, pos, uv, tri};
+}
+
+static void test_cast_shadow_ridge(void)
+{
+    float pos[30], uv[20];
+    int tri[24];
+    hd_mesh m;
+    ridge_mesh(&m, pos, uv, tri);
+    const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, a = 30 * (float)M_PI / 180;
+    const float light[3] = {cosf(a), 0, sinf(a)};
+    const int S = 128;
+    hd_image v = {0}, vt = {0};
+    CHECK(hd_mesh_cast_shadow_uv(&m, I, light, S, 0.05f, &v) == HD_OK);
+    /* the same, turned by 20 degrees of yaw and 10 of pitch (R = Rx Ry), the light with it */
+    const float cy = cosf(0.349f), sy = sinf(0.349f), cx = cosf(0.175f), sx = sinf(0.175f);
+    const float R[9] = {cy, 0, sy, sx * sy, cx, -sx * cy, -cx * sy, sx, cx * cy};
+    float lt[3];
+    for (int r = 0; r < 3; r++) lt[r] = R[3 * r] * light[0] + R[3 * r + 1] * light[1] + R[3 * r + 2] * light[2];
+    CHECK(hd_mesh_cast_shadow_uv(&m, R, lt, S, 0.05f, &vt) == HD_OK);
+    int bad = 0, bad_turned = 0, n = 0;
+    for (int y = S / 4; v.data && vt.data && y < 3 * S / 4; y++)
+        for (int x = 0; x < S; x++) {
+            const float px = (x + 0.5f) / S * 8 - 4, want = (px > -1.5f && px < -1.1f) || (px > -0.8f && px < -0.2f) ? 0.0f
+                                                           : px < -2.1f || px > 0.1f                            ? 1.0f
+                                                                                                               : -1.0f;
+            if (want < 0) continue;
+            const size_t i = (size_t)y * S + x;
+            n++;
+            bad += fabsf(v.data[i] - want) > 0.05f, bad_turned += fabsf(vt.data[i] - want) > 0.05f;
+        }
+    printf("cast shadow of a ridge: %d and %d (turned) of %d texels off the analytic answer\n", bad, bad_turned, n);
+    CHECK(n > 5000 && bad == 0 && bad_turned == 0);
+    /* bad arguments */
+    hd_image w = {0};
+    const float zero[3] = {0, 0, 0};
+    CHECK(hd_mesh_cast_shadow_uv(&m, I, zero, S, 0.05f, &w) == HD_ERR_ARG && !w.data);
+    CHECK(hd_mesh_cast_shadow_uv(&m, I, light, S, 0.0f, &w) == HD_ERR_ARG && !w.data);
+    hd_image_free(&v), hd_image_free(&vt);
+}
+
+/* The canonical face lit from the image's left at 60 degrees: the nose shades the right cheek, so
+ * the texels in shadow lie on the image's right half (u > 0.5) nearly all; a light from the camera
+ * casts no shadow at all. */
+static void test_cast_shadow_face(void)
+{
+    const hd_mesh *m = NULL;
+    CHECK(hd_mesh_canonical(&m) == HD_OK);
+    if (!m) return;
+    const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, side[3] = {-0.866f, 0, 0.5f}, front[3] = {0, 0, 1};
+    const int S = 128;
+    hd_image v = {0};
+    CHECK(hd_mesh_cast_shadow_uv(m, I, side, S, 0.3f, &v) == HD_OK);
+    int left = 0, right = 0;
+    for (int y = 0; v.data && y < S; y++)
+        for (int x = 0; x < S; x++)
+            if (v.data[(size_t)y * S + x] < 0.5f) *(x < S / 2 ? &left : &right) += 1;
+    printf("canonical face, light from the left: %d texels in shadow on the left, %d on the right\n", left, right);
+    CHECK(right > 200 && left * 20 < right);
+    hd_image_free(&v);
+    CHECK(hd_mesh_cast_shadow_uv(m, I, front, S, 0.3f, &v) == HD_OK);
+    int all = 1;
+    for (size_t i = 0; v.data && i < (size_t)S * S; i++) all &= v.data[i] == 1.0f;
+    CHECK(v.data && all);
+    hd_image_free(&v);
+}
+
 int main(void)
 {
     test_canonical();
     test_raster_edges();
     test_obj_errors();
     test_normals();
+    test_cast_shadow_ridge();
+    test_cast_shadow_face();
     return test_summary("test_mesh");
 }

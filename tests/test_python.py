@@ -127,6 +127,21 @@ try:
 except ValueError:
     raises_bg = True
 check(raises_bg, "background='wall' was accepted")
+# shadows="none": as hdnet relight --shadows none, byte for byte; the default casts them: under a
+# light from the side the relit face differs, darker where it does (the nose's shadow)
+flat = hdnet.Model(shadows="none")
+check(flat.shadows == "none" and model.shadows == "cast", "Model.shadows")
+cli("relight", photo_path, "--dir", "70,20", "--shadows", "none", "-o", "cli_flat.pfm")
+unshadowed = flat.relight(photo, direction=(70, 20))
+check(np.array_equal(unshadowed, hdnet.imread("cli_flat.pfm")), "shadows= differs from hdnet relight --shadows none")
+moved = np.abs(kept - unshadowed).max(axis=2) > 0.02
+check(moved.sum() > 100 and (kept[moved] <= unshadowed[moved] + 1e-6).mean() > 0.9,
+      "cast shadows: %d pixels moved, not mostly darker" % moved.sum())
+try:
+    hdnet.Model(shadows="soft")
+    check(False, "shadows='soft' was accepted")
+except ValueError:
+    pass
 tex = faces[0].texture
 check(np.array_equal(model.relight(tex, preset=1, aligned=True), model.relight(tex, light=hdnet.light_preset(1), aligned=True)),
       "aligned relight: preset= and light= differ")

@@ -563,7 +563,7 @@ static void test_eyes_follow_skin(void)
     hd_light_rgb_from_grey(tgt, &t);
     const hd_mesh *mesh = NULL;
     CHECK(hd_mesh_canonical(&mesh) == HD_OK);
-    CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, &t, &lr) == HD_OK);
+    CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, &t, NULL, &lr) == HD_OK);
     if (mesh && lr.data) {
         const int *eyes[2] = {hd_contour_right_eye, hd_contour_left_eye};
         float c[2][2] = {{0}};
@@ -728,6 +728,53 @@ static void test_photo_weight_holes(void)
     hd_aligned_faces_free(faces, n);
 }
 
+
+/* Cast shadows in the rule (rule.c, cast_shadow.c): with the head's pose, a light from the image's
+ * left darkens the change on the right half (the nose's shadow on the cheek) and never brightens
+ * it anywhere, for a grey light and each channel of a coloured one; a light that does not change
+ * changes nothing, shadows or not. The source light is along the camera's axis: it casts none. */
+static void test_cast_shadows(void)
+{
+    float src[HD_SH_COEFFS], tgt[HD_SH_COEFFS];
+    hd_light_from_direction(0, 0, 1.0f, 0.6f, src);
+    hd_light_from_direction(-60, 0, 1.5f, 0.3f, tgt);
+    hd_decomposition d;
+    hd_image in, mask, on = {0}, off = {0}, same = {0};
+    make_face(src, &d, &in, &mask);
+    const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    hd_light_rgb t, s, c;
+    hd_light_rgb_from_grey(tgt, &t);
+    hd_light_rgb_from_grey(src, &s);
+    const float colour[3] = {1.0f, 0.8f, 0.6f};
+    hd_light_rgb_from_direction(-60, 0, 1.5f, 0.3f, colour, &c);
+    CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, &s, I, &same) == HD_OK);
+    int zero = 1;
+    for (size_t p = 0; same.data && p < (size_t)SIDE * SIDE; p++) zero &= same.data[p] == 0.0f;
+    CHECK(same.data && zero);
+    for (int coloured = 0; coloured < 2; coloured++) {
+        const hd_light_rgb *L = coloured ? &c : &t;
+        CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, L, I, &on) == HD_OK);
+        CHECK(hd_ratio_field(&d, &mask, SIDE, src, 0.0f, L, NULL, &off) == HD_OK);
+        if (!on.data || !off.data) break;
+        double half[2] = {0, 0}, most = 0;
+        int darker = 1;
+        for (int ch = 0; ch < on.channels; ch++)
+            for (int y = 0; y < SIDE; y++)
+                for (int x = 0; x < SIDE; x++) {
+                    const size_t p = (size_t)ch * SIDE * SIDE + (size_t)y * SIDE + x;
+                    const double drop = off.data[p] - on.data[p];
+                    darker &= drop >= -1e-5;
+                    half[x >= SIDE / 2] += drop, most = fmax(most, drop);
+                }
+        printf("cast shadows (%s light): log r lower by %.3f at most, summed %.1f on the right half, %.1f on the left\n",
+               coloured ? "coloured" : "grey", most, half[1], half[0]);
+        CHECK(darker && most > 0.5 && half[1] > 10 * half[0]);
+        hd_image_free(&on), hd_image_free(&off);
+    }
+    hd_image_free(&same);
+    free_face(&d, &in, &mask);
+}
+
 int main(void)
 {
     /* the canonical mesh (for the face regions): from the build tree, the source tree's models/ */
@@ -746,5 +793,6 @@ int main(void)
     test_eyes_follow_skin();
     test_forehead_region();
     test_photo_weight_holes();
+    test_cast_shadows();
     return test_summary("test_relight_rule");
 }

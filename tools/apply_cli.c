@@ -55,15 +55,19 @@ int cli_white_balance_set(const cli_cmd_spec *spec, const char *value, hd_model 
     return model && hd_model_set_white_balance(model, mode) != HD_OK ? cli_report(spec->name) : 0;
 }
 
-int cli_background_set(const cli_cmd_spec *spec, const char *value, cli_clip *clip, hd_model *model)
+int cli_scene_set(const cli_cmd_spec *spec, const cli_scene *scene, cli_clip *clip, hd_model *model)
 {
-    if (!value) return 0;
-    hd_background mode;
-    if (strcmp(value, "keep") == 0) mode = HD_BACKGROUND_KEEP;
-    else if (strcmp(value, "relight") == 0) mode = HD_BACKGROUND_RELIGHT;
-    else return cli_usage_error(spec, "--background wants keep or relight, got '%s'", value);
-    if (clip) clip->background = mode;
-    return model && hd_model_set_background(model, mode) != HD_OK ? cli_report(spec->name) : 0;
+    hd_background background = HD_BACKGROUND_KEEP;
+    hd_shadows shadows = HD_SHADOWS_CAST;
+    const char *b = scene->background, *s = scene->shadows;
+    if (b && strcmp(b, "relight") == 0) background = HD_BACKGROUND_RELIGHT;
+    else if (b && strcmp(b, "keep") != 0) return cli_usage_error(spec, "--background wants keep or relight, got '%s'", b);
+    if (s && strcmp(s, "none") == 0) shadows = HD_SHADOWS_NONE;
+    else if (s && strcmp(s, "cast") != 0) return cli_usage_error(spec, "--shadows wants cast or none, got '%s'", s);
+    if (clip) clip->background = background, clip->shadows = shadows;
+    if (model && (hd_model_set_background(model, background) != HD_OK || hd_model_set_shadows(model, shadows) != HD_OK))
+        return cli_report(spec->name);
+    return 0;
 }
 
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source)

@@ -40,18 +40,26 @@ hd_status cli_apply_write(const cli_input *in, const char *out, int single, cons
 /* The rows every photo-applying command (relight, delight, transfer) ends its option table with:
  * the source light, the clip options of video_cli.h, the detector's minimum score, threads, quiet,
  * and the table's terminator (the file includes video_cli.h for the clip rows). */
-#define CLI_OPT_APPLY_TAIL_ROWS(source, background, clip, min_score, threads, quiet)                                   \
-    CLI_OPT_SOURCE_LIGHT_ROW(source), CLI_OPT_BACKGROUND_ROW(background), CLI_OPT_CLIP_ROWS(clip),                   \
+#define CLI_OPT_APPLY_TAIL_ROWS(source, scene, clip, min_score, threads, quiet)                                        \
+    CLI_OPT_SOURCE_LIGHT_ROW(source), CLI_OPT_SCENE_ROWS(scene), CLI_OPT_CLIP_ROWS(clip),                            \
         CLI_OPT_MIN_SCORE_ROW(min_score),                                                                              \
         CLI_OPT_THREADS_ROW(threads), CLI_OPT_QUIET_ROW(quiet), {NULL, 0, 0, NULL, NULL, NULL}
-#define CLI_OPT_BACKGROUND_ROW(var)                                                                                     \
-    {"background", 0, CLI_OPT_STRING, &(var), "keep|relight",                                                           \
+/* What a photo-applying command makes of the picture around the face's change: --background and
+ * --shadows as given (NULL: the default). */
+typedef struct cli_scene {
+    const char *background, *shadows;
+} cli_scene;
+#define CLI_OPT_SCENE_ROWS(s)                                                                                           \
+    {"background", 0, CLI_OPT_STRING, &(s).background, "keep|relight",                                                 \
      "the background of a photo or clip: keep it bit for bit (default), or relight it as a flat wall under the "      \
-     "same light, and the body with the head (docs/usage.md, \"The background\")"}
-/* Reads a --background value (NULL: leave the default) into model's background mode, or for a
- * clip (clip not NULL) into clip->background, which cli_video sets on its model. Returns 0, or the
- * usage error's exit code. */
-int cli_background_set(const cli_cmd_spec *spec, const char *value, cli_clip *clip, hd_model *model);
+     "same light, and the body with the head (docs/usage.md, \"The background\")"},                                   \
+    {"shadows", 0, CLI_OPT_STRING, &(s).shadows, "cast|none",                                                          \
+     "the shadows the face casts on itself (the nose's, the brows'), under its own light and the new one: cast "       \
+     "them (default) or none (docs/usage.md, \"Cast shadows\")"}
+/* Reads the scene's values into model's background and shadow modes (model not NULL), or for a
+ * clip (clip not NULL) into clip->background and clip->shadows, which cli_video sets on its model;
+ * both NULL: checks them only. Returns 0, or the usage error's exit code. */
+int cli_scene_set(const cli_cmd_spec *spec, const cli_scene *scene, cli_clip *clip, hd_model *model);
 /* Reads a --source-light value; a usage error (nonzero) when it is neither. */
 int cli_source_light_parse(const cli_cmd_spec *spec, const char *value, hd_source_light *source);
 

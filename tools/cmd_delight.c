@@ -24,7 +24,8 @@ static hd_status delight_one(void *ctx, const cli_input *in, const char *out, in
 
 int cmd_delight(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *source = NULL, *background = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *source = NULL;
+    cli_scene scene = {NULL, NULL};
     int aligned = 0, threads = 0, quiet = 0;
     cli_clip clip = {0};
     float min_score = cli_min_score_default();
@@ -35,7 +36,7 @@ int cmd_delight(int argc, char **argv)
          "folder: the output folder (OUT/NAME.delit.png)"},
         CLI_OPT_FACE_MASK_ROW(mask_path),
         CLI_OPT_ALIGNED_ROW(aligned),
-        CLI_OPT_APPLY_TAIL_ROWS(source, background, clip, min_score, threads, quiet),
+        CLI_OPT_APPLY_TAIL_ROWS(source, scene, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "delight", "IMG|DIR|@LIST ... [-m MODEL] -o OUT [--aligned [--mask M.png]]",
@@ -57,7 +58,7 @@ int cmd_delight(int argc, char **argv)
     int rc = CLI_EXIT_FAIL;
     if ((code = cli_opts_common(&spec, threads, min_score)) || (!out && (code = cli_usage_error(&spec, "-o is required"))) ||
         (source && (code = cli_source_light_parse(&spec, source, &run.request.source))) ||
-        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
+        (code = cli_scene_set(&spec, &scene, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
         free(pos);
         return code;
     }
@@ -77,7 +78,7 @@ int cmd_delight(int argc, char **argv)
     }
     if (cli_inputs_collect(&in, pos, npos) != HD_OK || hd_model_load(model_path, &run.model) != HD_OK)
         rc = cli_report("delight");
-    else if ((code = cli_background_set(&spec, background, NULL, run.model)))
+    else if ((code = cli_scene_set(&spec, &scene, NULL, run.model)))
         rc = code;
     else
         rc = cli_batch_run("delight", "delit", CLI_NO_FACE_ALIGNED, &in, out, single, quiet, delight_one, &run, NULL);

@@ -81,15 +81,15 @@ static int print_photo_table(const hd_photo_eval *ev, const hd_photo_rule *how)
 }
 
 /* --sheets: the before / after sheet of every photo of DATA as OUT/PERSON-NAME.png. */
-static int photo_sheets(const char *data, const char *model_path, const char *out)
+static int photo_sheets(const char *data, const char *model_path, hd_shadows shadows, const char *out)
 {
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
     hd_dataset ds;
     memset(&ds, 0, sizeof ds);
     int rc = CLI_EXIT_OK;
-    if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK ||
-        hd_dataset_scan(data, &ds, warn) != HD_OK || hd_mkdirs(out) != HD_OK) {
+    if (hd_model_load(model_path, &model) != HD_OK || hd_model_set_shadows(model, shadows) != HD_OK ||
+        hd_aligner_load(&aligner) != HD_OK || hd_dataset_scan(data, &ds, warn) != HD_OK || hd_mkdirs(out) != HD_OK) {
         rc = cli_report("eval");
         goto done;
     }
@@ -130,23 +130,25 @@ static int emit_json(const json_out *j, char *text, hd_status written)
     return rc;
 }
 
-/* The model (model_path, NULL: the shipped one) and the aligner the photo evaluations run; 0 when
- * both loaded, else the exit code (the reason reported). */
-static int load_model_aligner(const char *model_path, hd_model **model, hd_aligner **aligner)
+/* The model (model_path, NULL: the shipped one; casting shadows or not) and the aligner the photo
+ * evaluations run; 0 when both loaded, else the exit code (the reason reported). */
+static int load_model_aligner(const char *model_path, hd_shadows shadows, hd_model **model, hd_aligner **aligner)
 {
     *model = NULL, *aligner = NULL;
-    if (hd_model_load(model_path, model) == HD_OK && hd_aligner_load(aligner) == HD_OK) return 0;
+    if (hd_model_load(model_path, model) == HD_OK && hd_model_set_shadows(*model, shadows) == HD_OK &&
+        hd_aligner_load(aligner) == HD_OK)
+        return 0;
     hd_model_free(*model);
     *model = NULL;
     return cli_report("eval");
 }
 
-static int photo_eval(const char *data, const char *model_path, const hd_photo_rule *how, const char *heldout,
-                      int limit, const json_out *json)
+static int photo_eval(const char *data, const char *model_path, hd_shadows shadows, const hd_photo_rule *how,
+                      const char *heldout, int limit, const json_out *json)
 {
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
-    int code = load_model_aligner(model_path, &model, &aligner);
+    int code = load_model_aligner(model_path, shadows, &model, &aligner);
     if (code) return code;
     hd_photo_eval ev;
     hd_status st = hd_photo_eval_run(data, model, aligner, how, heldout, limit, &ev, warn);
@@ -211,11 +213,12 @@ static int parse_ml_lights(const cli_cmd_spec *spec, const char *text, hd_ml_opt
     return 0;
 }
 
-static int multilight_eval(const char *data, const char *model_path, const hd_ml_options *o, const json_out *json)
+static int multilight_eval(const char *data, const char *model_path, hd_shadows shadows, const hd_ml_options *o,
+                           const json_out *json)
 {
     hd_model *model = NULL;
     hd_aligner *aligner = NULL;
-    int code = load_model_aligner(model_path, &model, &aligner);
+    int code = load_model_aligner(model_path, shadows, &model, &aligner);
     if (code) return code;
     hd_ml_report r;
     cli_progress_start(&ml_bar, "eval --multilight: steps", 0);
@@ -257,11 +260,12 @@ static int multilight_eval(const char *data, const char *model_path, const hd_ml
 
 /* What `hdnet eval` was asked: its options, DATA, and the relighting they describe. */
 typedef struct eval_args {
-    const char *model_path, *pred, *out, *rule, *heldout, *sheets, *source, *white_balance, *ml_lights;
+    const char *model_path, *pred, *out, *rule, *heldout, *sheets, *source, *white_balance, *ml_lights, *shadows;
     int threads, quiet, photos, pairs, limit, json, multilight, refs, free_level, true_shading;
     float guard, repose;
     const char *data;
     hd_photo_rule how; /* from rule, source and guard (eval_check) */
+    hd_shadows shadow_mode; /* from shadows (eval_check) */
 } eval_args;
 
 /* The checks every kind of evaluation shares, in the order the messages were always given; 0 or
@@ -291,6 +295,10 @@ static int eval_check(const cli_cmd_spec *spec, eval_args *a, const char *surplu
                                      "--pairs or --multilight");
     if (a->white_balance && (a->pairs || a->photos || a->multilight))
         return cli_usage_error(spec, "--white-balance goes with the ground-truth evaluation, not --photos or --pairs");
+    if (a->shadows && !a->photos && !a->multilight) return cli_usage_error(spec, "--shadows goes with --photos or --multilight");
+    if (a->shadows && strcmp(a->shadows, "cast") != 0 && strcmp(a->shadows, "none") != 0)
+        return cli_usage_error(spec, "--shadows wants cast or none, got '%s'", a->shadows);
+    a->shadow_mode = a->shadows && strcmp(a->shadows, "none") == 0 ? HD_SHADOWS_NONE : HD_SHADOWS_CAST;
     return 0;
 }
 
@@ -316,7 +324,7 @@ static int run_multilight(const cli_cmd_spec *spec, const eval_args *a, const js
     o.guard = a->guard;
     o.brightness = a->free_level ? HD_BRIGHTNESS_FREE : HD_BRIGHTNESS_KEEP;
     if (a->ml_lights && parse_ml_lights(spec, a->ml_lights, &o)) return CLI_EXIT_USAGE;
-    return multilight_eval(a->data, a->model_path, &o, jo);
+    return multilight_eval(a->data, a->model_path, a->shadow_mode, &o, jo);
 }
 
 /* --photos: its own checks, then the sheets or the scores. */
@@ -325,8 +333,8 @@ static int run_photos(const cli_cmd_spec *spec, const eval_args *a, const json_o
     if (a->pred) return cli_usage_error(spec, "--photos relights with a model: --pred does not go with it");
     int code = rule_limit_check(spec, a);
     if (code) return code;
-    if (a->sheets) return photo_sheets(a->data, a->model_path, a->sheets);
-    return photo_eval(a->data, a->model_path, &a->how, a->heldout, a->limit, jo);
+    if (a->sheets) return photo_sheets(a->data, a->model_path, a->shadow_mode, a->sheets);
+    return photo_eval(a->data, a->model_path, a->shadow_mode, &a->how, a->heldout, a->limit, jo);
 }
 
 /* The ground-truth evaluation (SPEC section 7) of a model or of predictions. */
@@ -392,6 +400,9 @@ int cmd_eval(int argc, char **argv)
          "the ground-truth evaluation of a model: add a row of the normals N-Net gives when it reads the set's true "
          "shading instead of S-Net's (docs/synthetic-data.md)"},
         CLI_OPT_WHITE_BALANCE_ROW(a.white_balance),
+        {"shadows", 0, CLI_OPT_STRING, &a.shadows, "cast|none",
+         "with --photos or --multilight: the shadows the face casts on itself, cast (default) or none "
+         "(docs/usage.md, \"Cast shadows\")"},
         {"guard", 0, CLI_OPT_FLOAT, &a.guard, "G",
          "with --photos or --pairs: the ratio rule's guard g as a share of the face's mean source shading "
          "(default 0: the built-in value, docs/usage.md)"},

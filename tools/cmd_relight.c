@@ -72,7 +72,8 @@ static hd_status relight_one(void *ctx, const cli_input *in, const char *out, in
 
 /* The command line of `hdnet relight`: what the option table fills. */
 typedef struct relight_args {
-    const char *model_path, *light_path, *preset, *out, *mask_path, *sheet_path, *env_path, *source, *background;
+    const char *model_path, *light_path, *preset, *out, *mask_path, *sheet_path, *env_path, *source;
+    cli_scene scene;
     cli_opt_floats dir, colour;
     float intensity, ambient, rotate, min_score; /* intensity, ambient NAN: the defaults */
     int keep, no_keep, aligned, threads, quiet;
@@ -114,7 +115,7 @@ static int relight_check(const cli_cmd_spec *spec, const relight_args *a, religh
             if (!(fabsf(lights[0].sh[c][k]) <= HD_LIGHT_MAX_COEFF)) return cli_usage_error(spec, "the light's coefficient %d (%g) is beyond %g: its shading could overflow", k,
                                 (double)lights[0].sh[c][k], (double)HD_LIGHT_MAX_COEFF);
     if (a->source && cli_source_light_parse(spec, a->source, &run->apply.request.source)) return CLI_EXIT_USAGE;
-    return cli_background_set(spec, a->background, NULL, NULL);
+    return cli_scene_set(spec, &a->scene, NULL, NULL);
 }
 
 int cmd_relight(int argc, char **argv)
@@ -149,7 +150,7 @@ int cmd_relight(int argc, char **argv)
         {"sheet", 0, CLI_OPT_STRING, &a.sheet_path, "FILE.png",
          "also write a contact sheet: input | delit | relit ... (one input only)"},
         CLI_OPT_ALIGNED_ROW(a.aligned),
-        CLI_OPT_APPLY_TAIL_ROWS(a.source, a.background, clip, a.min_score, a.threads, a.quiet),
+        CLI_OPT_APPLY_TAIL_ROWS(a.source, a.scene, clip, a.min_score, a.threads, a.quiet),
     };
     const cli_cmd_spec spec = {
         "relight",
@@ -176,7 +177,7 @@ int cmd_relight(int argc, char **argv)
 
     if ((code = relight_check(&spec, &a, &run, lights))) goto done;
     if (npos == 1 && cli_is_clip(pos[0], &clip)) { /* a video, or a folder of frames with --fps */
-        if ((code = cli_background_set(&spec, a.background, &clip, NULL))) goto done;
+        if ((code = cli_scene_set(&spec, &a.scene, &clip, NULL))) goto done;
         if (run.apply.request.source != HD_SOURCE_FIT)
             cli_usage_error(&spec, "a clip takes the fitted source light (--source-light fit)");
         else if (run.all || a.sheet_path || !hd_light_rgb_is_grey(&lights[0]))
@@ -209,7 +210,7 @@ int cmd_relight(int argc, char **argv)
         rc = cli_report("relight");
         goto done;
     }
-    if ((code = cli_background_set(&spec, a.background, NULL, run.apply.model))) goto done;
+    if ((code = cli_scene_set(&spec, &a.scene, NULL, run.apply.model))) goto done;
     rc = cli_batch_run("relight", "relit", CLI_NO_FACE_ALIGNED, &in, a.out, single, a.quiet, relight_one, &run, NULL);
 done:
     if (code) rc = code;

@@ -25,7 +25,8 @@ static hd_status transfer_one(void *ctx, const cli_input *in, const char *out, i
 
 int cmd_transfer(int argc, char **argv)
 {
-    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL, *source = NULL, *background = NULL;
+    const char *model_path = NULL, *out = NULL, *mask_path = NULL, *ref_path = NULL, *source = NULL;
+    cli_scene scene = {NULL, NULL};
     int keep = 0, no_keep = 0, aligned = 0, threads = 0, quiet = 0;
     cli_clip clip = {0};
     float min_score = cli_min_score_default();
@@ -41,7 +42,7 @@ int cmd_transfer(int argc, char **argv)
         {"aligned", 0, CLI_OPT_FLAG, &aligned, NULL,
          "IMG and REF are aligned face textures, not photos (automatic for a file with NAME.mask.png or "
          "NAME.normal.png beside it)"},
-        CLI_OPT_APPLY_TAIL_ROWS(source, background, clip, min_score, threads, quiet),
+        CLI_OPT_APPLY_TAIL_ROWS(source, scene, clip, min_score, threads, quiet),
     };
     const cli_cmd_spec spec = {
         "transfer", "IMG|DIR|@LIST ... --ref REF [-m MODEL] -o OUT [--aligned]",
@@ -65,7 +66,7 @@ int cmd_transfer(int argc, char **argv)
     }
     hd_source_light src = HD_SOURCE_FIT;
     if ((source && (code = cli_source_light_parse(&spec, source, &src))) ||
-        (code = cli_background_set(&spec, background, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
+        (code = cli_scene_set(&spec, &scene, npos == 1 && cli_is_clip(pos[0], &clip) ? &clip : NULL, NULL))) {
         free(pos);
         return code;
     }
@@ -103,7 +104,7 @@ int cmd_transfer(int argc, char **argv)
         rc = cli_report("transfer");
         goto done;
     }
-    if ((code = cli_background_set(&spec, background, NULL, run.model))) {
+    if ((code = cli_scene_set(&spec, &scene, NULL, run.model))) {
         rc = code;
         goto done;
     }

@@ -34,7 +34,7 @@ int cli_video(const char *cmd, const char *in, const char *out, const char *mode
     hd_video_options_default(&opt);
     opt.smooth = !clip->no_smooth;
     if (hd_model_load(model_path, &model) != HD_OK || hd_aligner_load(&aligner) != HD_OK ||
-        hd_model_set_background(model, clip->background) != HD_OK) {
+        hd_model_set_background(model, clip->background) != HD_OK || hd_model_set_shadows(model, clip->shadows) != HD_OK) {
         rc = cli_report(cmd);
         goto done;
     }

@@ -8,7 +8,8 @@
 typedef struct cli_clip {
     float fps;     /* --fps: a folder input is a clip at this frame rate (0: not given) */
     int no_smooth; /* --no-smooth */
-    hd_background background; /* --background (cli_background_set) */
+    hd_background background; /* --background (cli_scene_set) */
+    hd_shadows shadows;       /* --shadows (cli_scene_set) */
 } cli_clip;
 
 #define CLI_OPT_CLIP_ROWS(c)                                                                                            \

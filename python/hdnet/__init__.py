@@ -96,6 +96,8 @@ _decomposition_free = _sig("hd_decomposition_free", None, _P(_Decomposition))
 _model_set_white_balance = _sig("hd_model_set_white_balance", _st, ctypes.c_void_p, ctypes.c_int)
 _model_set_background = _sig("hd_model_set_background", _st, ctypes.c_void_p, ctypes.c_int)
 _model_background = _sig("hd_model_background", ctypes.c_int, ctypes.c_void_p)
+_model_set_shadows = _sig("hd_model_set_shadows", _st, ctypes.c_void_p, ctypes.c_int)
+_model_shadows = _sig("hd_model_shadows", ctypes.c_int, ctypes.c_void_p)
 _aligner_load = _sig("hd_aligner_load", _st, _P(ctypes.c_void_p))
 _aligner_free = _sig("hd_aligner_free", None, ctypes.c_void_p)
 _aligner_run = _sig("hd_aligner_run", _st, ctypes.c_void_p, _img_p, ctypes.c_int, _P(_P(_AlignedFace)),
@@ -277,13 +279,19 @@ class Model:
     before decomposing it (hd_model_set_white_balance; off by default).
     background="relight": a photo's background is relit too, as a flat wall under the same light,
     and the body below the chin with the head (hd_model_set_background; "keep", the default, leaves
-    both bit for bit)."""
+    both bit for bit).
+    shadows="none": no shadows cast by the face on itself (hd_model_set_shadows; "cast", the
+    default, darkens where the nose or the brows hide the new light and evens out where they hid
+    the old one)."""
 
     _BACKGROUNDS = {"keep": 0, "relight": 1}
+    _SHADOWS = {"cast": 0, "none": 1}
 
-    def __init__(self, path=None, white_balance=False, background="keep"):
+    def __init__(self, path=None, white_balance=False, background="keep", shadows="cast"):
         if background not in self._BACKGROUNDS:
             raise ValueError("background: expected 'keep' or 'relight', got %r" % (background,))
+        if shadows not in self._SHADOWS:
+            raise ValueError("shadows: expected 'cast' or 'none', got %r" % (shadows,))
         p = ctypes.c_void_p()
         _check(_model_load(None if path is None else os.fsencode(path), ctypes.byref(p)))
         self._p = p
@@ -291,11 +299,17 @@ class Model:
         if white_balance:
             _check(_model_set_white_balance(p, 1))
         _check(_model_set_background(p, self._BACKGROUNDS[background]))
+        _check(_model_set_shadows(p, self._SHADOWS[shadows]))
 
     @property
     def background(self):
         """What relighting a photo does to its background: "keep" or "relight"."""
         return "relight" if _model_background(self._p) == 1 else "keep"
+
+    @property
+    def shadows(self):
+        """Whether relighting a photo casts the face's shadows on itself: "cast" or "none"."""
+        return "none" if _model_shadows(self._p) == 1 else "cast"
 
     def __del__(self):
         if getattr(self, "_p", None):

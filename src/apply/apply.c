@@ -93,10 +93,12 @@ typedef struct job {
     hd_image *out;
 } job;
 
-/* What the ratio rule takes of a face besides its normals: its own light and the guard. */
+/* What the ratio rule takes of a face besides its normals: its own light, the guard, and the
+ * head's pose when the face casts shadows (NULL: none). */
 typedef struct face_rule {
     float source[HD_SH_COEFFS];
     float guard;
+    const float *rotation;
 } face_rule;
 
 static int jobs_of(const hd_apply_request *q, hd_apply_result *r, const float own[HD_SH_COEFFS], job *jobs)
@@ -129,7 +131,7 @@ static hd_status texture_job(const hd_image *tex, const hd_decomposition *d, con
     }
     const int W = tex->width, H = tex->height, side = W > H ? W : H;
     hd_image field = {0}, sized = {0};
-    hd_status st = hd_ratio_field(d, mask, side, fr->source, fr->guard, jb->target, &field);
+    hd_status st = hd_ratio_field(d, mask, side, fr->source, fr->guard, jb->target, NULL, &field);
     if (st == HD_OK && (W != side || H != side)) {
         st = hd_image_resize(&field, W, H, &sized);
         hd_image_free(&field);
@@ -178,7 +180,7 @@ hd_status hd_apply_decomposition(const hd_image *texture, const hd_decomposition
         hd_apply_result_free(r);
         return st;
     }
-    face_rule fr = {{0}, q->guard};
+    face_rule fr = {{0}, q->guard, NULL}; /* a texture has no pose: no cast shadows */
     r->face_light = hd_malloc(sizeof *r->face_light);
     if (!r->face_light) st = HD_ERR_NOMEM;
     else if ((st = hd_face_light(d, mask, q->source, fr.source)) == HD_OK)
@@ -226,7 +228,7 @@ static hd_status photo_job(const hd_aligned_face *f, const hd_decomposition *d, 
         hd_image_free(&tex_out);
         return st;
     }
-    st = hd_ratio_field(d, &f->mask, f->texture.width, fr->source, fr->guard, jb->target, &field);
+    st = hd_ratio_field(d, &f->mask, f->texture.width, fr->source, fr->guard, jb->target, fr->rotation, &field);
     if (st == HD_OK) st = hd_warp_back(f, &field, NULL, &warped, &coverage);
     /* the field beyond the mesh (where the region grew over the forehead) from the mesh's edge */
     const size_t P = (size_t)warped.width * (size_t)warped.height;
@@ -275,7 +277,7 @@ hd_status hd_face_weights(const hd_aligned_face *f, const hd_decomposition *d, c
 }
 
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_source_light source, hd_image *photo,
+                        hd_brightness brightness, hd_source_light source, hd_shadows shadows, hd_image *photo,
                         hd_face_backdrop *backdrop)
 {
     const char *op = target ? "relight" : "delight";
@@ -285,7 +287,7 @@ hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, con
     float *feather = hd_malloc((P ? P : 1) * sizeof(float));
     if (!feather) return HD_ERR_NOMEM;
     job jb = {target, {{{0}}}, brightness, photo};
-    face_rule fr = {{0}, 0.0f};
+    face_rule fr = {{0}, 0.0f, shadows == HD_SHADOWS_CAST ? f->rotation : NULL};
     hd_head head;
     memset(&head, 0, sizeof head);
     hd_status st = hd_face_light(d, &f->mask, source, fr.source);
@@ -328,7 +330,7 @@ hd_status hd_apply_photo(hd_model *model, hd_aligner *aligner, const hd_image *p
         const hd_aligned_face *f = &faces[k];
         hd_decomposition d;
         memset(&d, 0, sizeof d);
-        face_rule fr = {{0}, q->guard};
+        face_rule fr = {{0}, q->guard, hd_model_shadows(model) == HD_SHADOWS_CAST ? f->rotation : NULL};
         st = hd_face_decompose(model, f, &d);
         if (st == HD_OK) st = hd_face_light(&d, &f->mask, q->source, fr.source);
         if (st == HD_OK) memcpy(r->face_light[k], fr.source, sizeof fr.source);

@@ -82,9 +82,12 @@ hd_status hd_photo_face_weight(const hd_aligned_face *f, const hd_image *photo, 
  * size texels: `channels` planes (1 for a grey target, 3 for a coloured one), defined everywhere
  * (the regions and the texels outside mask filled from the skin, then blurred). d at the model's
  * size; mask (any size, 1 channel, may be NULL) is the face's; g = guard (<= 0: HD_RATIO_GUARD)
- * x the mean source shading over the skin. target NULL: flat light (delighting). */
+ * x the mean source shading over the skin. target NULL: flat light (delighting). rotation (the
+ * aligned face's, row-major; NULL: none) casts the face mesh's shadows in that pose: each light's
+ * shading loses its distant part (hd_light_distant_part) where the mesh hides that light
+ * (hd_mesh_cast_shadow_uv), down to at most SHADOW_FLOOR of it (docs/usage.md, "Cast shadows"). */
 hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
-                         float guard, const hd_light_rgb *target, hd_image *log_ratio);
+                         float guard, const hd_light_rgb *target, const float *rotation, hd_image *log_ratio);
 
 /* Applies a log-ratio field (1 or 3 planes, at the image's size) to image with feather weights w
  * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
@@ -115,12 +118,13 @@ typedef struct hd_face_backdrop {
 /* The rule on one face of a photo already aligned (f) and decomposed (d, which may be smoothed, as
  * a video does): photo (3 channels, the frame's size; earlier faces may be changed already) is
  * changed in place toward target (NULL: flat light, delighting), from the face's own light
- * (hd_face_light of d by `source`), feathered from the face's edge, as hd_apply_photo does for
+ * (hd_face_light of d by `source`), with the shadows the face casts unless shadows is
+ * HD_SHADOWS_NONE, feathered from the face's edge, as hd_apply_photo does for
  * each face. backdrop (NULL: the background kept) relights the body as well and adds the face's
  * person to backdrop->people (the face needs its person map, else HD_ERR_ARG), as hd_apply_photo
  * does with HD_BACKGROUND_RELIGHT. */
 hd_status hd_apply_face(const hd_aligned_face *f, const hd_decomposition *d, const hd_light_rgb *target,
-                        hd_brightness brightness, hd_source_light source, hd_image *photo,
+                        hd_brightness brightness, hd_source_light source, hd_shadows shadows, hd_image *photo,
                         hd_face_backdrop *backdrop);
 
 /* The change of light beyond the face mesh (head.c, docs/usage.md "The whole head"): per face, a

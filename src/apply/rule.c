@@ -22,6 +22,12 @@
 
 /* the blur of log r, a share of the texture side */
 #define RATIO_BLUR 0.012f
+/* Cast shadows (cast_shadow.c): how far under the face, in cm, a ray toward the light must pass to
+ * be in full shadow, and the least share of a texel's shading a shadow leaves (what the room, the
+ * light's size and the skin's own glow bring into a shadow). */
+#define SHADOW_SOFTNESS 0.3f
+#define SHADOW_FLOOR 0.4f
+#define SHADOW_SIDE 128
 
 static const double LUMA[3] = {0.2126, 0.7152, 0.0722};
 
@@ -107,8 +113,40 @@ hd_status hd_reference_light(const hd_decomposition *d, const hd_image *mask, hd
     return st;
 }
 
+/* The shadows the face casts under light (cast_shadow.c), at size x size: s'(n) = max(s(n) - (1 - V)
+ * max(s_d(n), 0), SHADOW_FLOOR s(n)), s_d the distant part of the light (hd_light_distant_part) and V
+ * the texel's share of it; shading (P floats, s) is changed in place. vis: the visibility map of the
+ * light's direction, computed here when vis->data is NULL (kept for the caller to free); scratch:
+ * P floats. */
+static hd_status cast_shadows(const float *normal, size_t P, int size, const float *rotation,
+                              const float light[HD_SH_COEFFS], const float direction[3], hd_image *vis, float *shading,
+                              float *scratch)
+{
+    float unused[3], part[HD_SH_COEFFS];
+    hd_light_distant_part(light, unused, part);
+    if (!vis->data) {
+        const hd_mesh *mesh = NULL;
+        hd_status st = hd_mesh_canonical(&mesh);
+        /* at half the side past SHADOW_SIDE texels: the field is blurred by more than a texel */
+        const int side = size > SHADOW_SIDE ? size / 2 : size;
+        hd_image half = {0};
+        if (st == HD_OK) st = hd_mesh_cast_shadow_uv(mesh, rotation, direction, side, SHADOW_SOFTNESS, side == size ? vis : &half);
+        if (st == HD_OK && side != size) st = hd_image_resize(&half, size, size, vis);
+        hd_image_free(&half);
+        if (st != HD_OK) return st;
+    }
+    hd_sh_shading_map(normal, NULL, (int)P, part, scratch);
+    const float floor_share = SHADOW_FLOOR;
+    for (size_t p = 0; p < P; p++) {
+        const float s = shading[p], direct = scratch[p] > 0 ? scratch[p] : 0.0f;
+        const float lit = s - (1 - vis->data[p]) * direct;
+        shading[p] = lit > floor_share * s ? lit : floor_share * s;
+    }
+    return HD_OK;
+}
+
 hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int size, const float source[HD_SH_COEFFS],
-                         float guard, const hd_light_rgb *target, hd_image *log_ratio)
+                         float guard, const hd_light_rgb *target, const float *rotation, hd_image *log_ratio)
 {
     memset(log_ratio, 0, sizeof *log_ratio);
     if (!d || !d->normal.data || d->normal.channels != 3)
@@ -123,11 +161,13 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
                 if (!isfinite(target->sh[c][k]))
                     return hd_fail(HD_ERR_NUMERIC, "relight: light coefficient %d of channel %d is not finite", k, c);
     const size_t P = (size_t)size * size;
-    hd_image n = {0}, skin = {0}, src = {0};
+    hd_image n = {0}, skin = {0}, src = {0}, vis_src = {0}, vis_target = {0};
     hd_status st = normals_at(d, size, &n);
     if (st == HD_OK) st = skin_at(mask, size, &skin);
     if (st == HD_OK) st = hd_image_alloc(&src, size, size, 1);
     if (st == HD_OK) st = hd_image_alloc(log_ratio, size, size, channels);
+    float *scratch = st == HD_OK ? hd_malloc(P * sizeof(float)) : NULL;
+    if (st == HD_OK && !scratch) st = HD_ERR_NOMEM;
     const float *known = skin.data; /* 1 where log r is the model's, 0 where it is filled */
     if (st == HD_OK) {
         hd_sh_shading_map(n.data, NULL, (int)P, source, src.data);
@@ -138,21 +178,41 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
         }
         const float share = guard > 0 && isfinite(guard) ? guard : HD_RATIO_GUARD;
         const float g = share * (count > 0 && mean > 0 ? (float)(mean / count) : 1.0f);
+        /* with the head's pose, both lights cast the face's shadows: the source's are in the photo
+         * already, and a light that does not change still changes nothing */
+        float dir_src[3], dir_target[3], part[HD_SH_COEFFS];
+        if (rotation) {
+            hd_light_distant_part(source, dir_src, part);
+            st = cast_shadows(n.data, P, size, rotation, source, dir_src, &vis_src, src.data, scratch);
+        }
+        if (st == HD_OK && rotation && target) {
+            float grey[HD_SH_COEFFS];
+            for (int k = 0; k < HD_SH_COEFFS; k++) grey[k] = (target->sh[0][k] + target->sh[1][k] + target->sh[2][k]) / 3;
+            hd_light_distant_part(grey, dir_target, part);
+            /* the same direction as the source's: the same shadows */
+            if (memcmp(dir_target, dir_src, sizeof dir_src) == 0) vis_target = vis_src, vis_src.data = NULL;
+        }
         for (int c = 0; c < channels && st == HD_OK; c++) {
             float *lr = log_ratio->data + (size_t)c * P;
             if (target) hd_sh_shading_map(n.data, NULL, (int)P, target->sh[c], lr);
             else for (size_t p = 0; p < P; p++) lr[p] = 1.0f; /* flat light: the albedo's level */
-            for (size_t p = 0; p < P; p++) {
-                float t = lr[p] > 0 ? lr[p] : 0.0f;
+            for (size_t p = 0; p < P; p++) lr[p] = lr[p] > 0 ? lr[p] : 0.0f;
+            if (rotation && target)
+                st = cast_shadows(n.data, P, size, rotation, target->sh[c], dir_target, &vis_target, lr, scratch);
+            for (size_t p = 0; st == HD_OK && p < P; p++) {
+                const float t = lr[p];
                 lr[p] = t == src.data[p] ? 0.0f : logf((t + g) / (src.data[p] + g));
             }
-            st = hd_field_fill(lr, known, size, size);
+            if (st == HD_OK) st = hd_field_fill(lr, known, size, size);
             if (st == HD_OK) st = hd_field_blur(lr, size, size, RATIO_BLUR * size);
         }
     }
+    free(scratch);
     hd_image_free(&n);
     hd_image_free(&skin);
     hd_image_free(&src);
+    hd_image_free(&vis_src);
+    hd_image_free(&vis_target);
     if (st != HD_OK) hd_image_free(log_ratio);
     return st;
 }

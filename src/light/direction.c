@@ -37,3 +37,23 @@ void hd_light_from_direction(float azimuth_deg, float elevation_deg, float inten
     const double d[3] = {cos(el) * sin(az), sin(el), cos(el) * cos(az)};
     light_from_vector(d, intensity, ambient, light);
 }
+
+void hd_light_distant_part(const float light[HD_SH_COEFFS], float direction[3], float part[HD_SH_COEFFS])
+{
+    /* band 1 of the unit distant light from the viewer fixes the scale: the band's length is the
+     * same for every direction */
+    float unit[HD_SH_COEFFS];
+    const double z[3] = {0, 0, 1};
+    light_from_vector(z, 1.0f, 0.0f, unit);
+    const double u = sqrt((double)unit[1] * unit[1] + (double)unit[2] * unit[2] + (double)unit[3] * unit[3]);
+    const double v[3] = {light[3], light[2], -light[1]};
+    const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 1e-12) || !isfinite(len)) {
+        direction[0] = direction[1] = 0.0f, direction[2] = 1.0f;
+        for (int k = 0; k < HD_SH_COEFFS; k++) part[k] = 0.0f;
+        return;
+    }
+    const double d[3] = {v[0] / len, v[1] / len, v[2] / len};
+    for (int a = 0; a < 3; a++) direction[a] = (float)d[a];
+    light_from_vector(d, (float)(len / u), 0.0f, part);
+}

@@ -56,4 +56,10 @@ hd_status hd_sh_fit_toward(const float *normal, const float *shading, const floa
 hd_status hd_sh_fit_lobe(const float *normal, const float *shading, const float *mask, int npix,
                          float light[HD_SH_COEFFS]);
 
+/* The distant light a light's first band carries (docs/usage.md, "Cast shadows"): its direction
+ * (unit, camera frame, toward the light: (l3, l2, -l1) normalised) and the light of
+ * hd_light_from_direction along it, no ambient, whose first band is the light's. A light with no
+ * first band: direction (0, 0, 1) and the zero light. */
+void hd_light_distant_part(const float light[HD_SH_COEFFS], float direction[3], float part[HD_SH_COEFFS]);
+
 #endif /* HD_LIGHT_H */

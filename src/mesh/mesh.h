@@ -100,4 +100,10 @@ void hd_uv_raster_free(hd_uv_raster *raster);
  * (outward for counter-clockwise triangles). */
 void hd_mesh_vertex_normals(const hd_mesh *mesh, const float *pos, float *normals);
 
+/* The shadows the face casts on itself (cast_shadow.c): for each texel of a size x size UV map, how
+ * much of a distant light from `direction` (camera frame, need not be unit) reaches the canonical
+ * mesh turned by `rotation` (row-major, the aligned face's): 1 lit, falling to 0 as the ray toward
+ * the light passes `softness` cm under the face (0 deepest in shadow); 1 off the mesh. */
+hd_status hd_mesh_cast_shadow_uv(const hd_mesh *mesh, const float rotation[9], const float direction[3], int size,
+                                 float softness, hd_image *visibility);
 #endif /* HD_MESH_H */

@@ -28,6 +28,7 @@ struct hd_model {
     run_state *idle[HD_DECOMPOSE_BATCH + 1]; /* idle run states by batch size */
     hd_white_balance white_balance; /* hd_model_set_white_balance's; HD_WHITE_BALANCE_OFF from hd_model_load */
     hd_background background;       /* hd_model_set_background's; HD_BACKGROUND_KEEP from hd_model_load */
+    hd_shadows shadows;             /* hd_model_set_shadows'; HD_SHADOWS_CAST from hd_model_load */
     hd_image eyes; /* the eye openings at the model size (hd_eyes_uv), made by the first call that needs them */
 };
 
@@ -112,6 +113,16 @@ hd_status hd_model_set_background(hd_model *model, hd_background mode)
 }
 
 hd_background hd_model_background(const hd_model *model) { return model ? model->background : HD_BACKGROUND_KEEP; }
+
+hd_status hd_model_set_shadows(hd_model *model, hd_shadows mode)
+{
+    if (!model) return hd_fail(HD_ERR_ARG, "shadows: no model");
+    if (mode != HD_SHADOWS_CAST && mode != HD_SHADOWS_NONE) return hd_fail(HD_ERR_ARG, "shadows: unknown mode %d", (int)mode);
+    model->shadows = mode;
+    return HD_OK;
+}
+
+hd_shadows hd_model_shadows(const hd_model *model) { return model ? model->shadows : HD_SHADOWS_CAST; }
 
 /* The eye contours at the model size, made once. */
 static hd_status model_eyes(hd_model *m, const float **eyes)

@@ -285,7 +285,7 @@ hd_status hd_video_relight_frame(hd_video_relighter *v, const hd_image *frame, h
         const int person = wall && f->person.data;
         if (st == HD_OK)
             st = hd_apply_face(f, &d, v->delight ? NULL : &target, v->delight ? HD_BRIGHTNESS_KEEP : v->brightness,
-                               HD_SOURCE_FIT, out, person ? &backdrop : NULL);
+                               HD_SOURCE_FIT, hd_model_shadows(v->model), out, person ? &backdrop : NULL);
         if (st == HD_OK && wall && !person) {
             lost++;
             st = face_off_wall(f, frame, &weight, backdrop.people);
