@@ -78,13 +78,16 @@ call 201 up2.json -H 'Content-Type: image/jpeg' --data-binary @"$jpeg" "$base/ap
 id2=$(id_of up2.json)
 grep -q '"width":675,"height":675' up2.json || fail "JPEG upload: wrong size in $(head -c 200 up2.json)"
 
-# ---- maps: seventeen PNGs of the photo's size, named in the upload's JSON (ten of the background
-# kept, seven of it relit)
+# ---- maps: eighteen PNGs of the photo's size, named in the upload's JSON (ten of the background
+# kept, seven of it relit, and the faces' depth for their cast shadows, with its code and each face's
+# scale)
 grep -q '"head":{"window":\[' up1.json || fail "upload: no head window in $(head -c 200 up1.json)"
 grep -q '"body_window":\[' up1.json || fail "upload: no head window with the body in $(head -c 200 up1.json)"
+grep -q '"depth":{"z0":[-0-9.e]*,"step":0.125}' up1.json || fail "upload: no depth code in $(grep -o '"depth":{[^}]*}' up1.json)"
+grep -q '"scale":[0-9.e]*,"landmarks"' up1.json || fail "upload: a face has no scale"
 grep -q '"backgrounds":\["keep","relight"\]' up1.json || fail "upload: the background cannot be relit: $(grep -o '"background_reason":"[^"]*"' up1.json)"
 for m in photo normal shading mask weight skin head_normal head_proxy head_weights head_mesh \
-    body_weight body_level body_head_normal body_head_proxy body_head_weights body_head_mesh people; do
+    body_weight body_level body_head_normal body_head_proxy body_head_weights body_head_mesh people depth; do
     grep -q "\"$m\":\"/api/photos/$id1/maps/$m.png\"" up1.json || fail "the upload's maps do not name $m.png"
     call 200 "$m.png" "$base/api/photos/$id1/maps/$m.png"
     [ "$(png_size "$m.png")" = "512 512" ] || fail "map $m is $(png_size "$m.png"), not 512 512"

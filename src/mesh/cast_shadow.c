@@ -147,3 +147,25 @@ hd_status hd_mesh_cast_shadow_uv(const hd_mesh *mesh, const float rotation[9], c
     if (st != HD_OK) hd_image_free(visibility);
     return st;
 }
+
+hd_status hd_mesh_posed_depth_uv(const hd_mesh *mesh, float scale, const float rotation[9], float offset, int size,
+                                 hd_image *depth)
+{
+    memset(depth, 0, sizeof *depth);
+    if (!mesh || !mesh->pos || !rotation || !isfinite(scale) || !isfinite(offset))
+        return hd_fail(HD_ERR_ARG, "posed depth: no mesh, or a pose that is not finite");
+    hd_uv_raster raster = {0};
+    hd_status st = hd_mesh_uv_raster(mesh, size, &raster);
+    if (st == HD_OK) st = hd_image_alloc(depth, size, size, 1);
+    for (size_t i = 0; st == HD_OK && i < (size_t)size * size; i++) {
+        const int t = raster.tri[i];
+        float z = 0;
+        for (int k = 0; t >= 0 && k < 3; k++) {
+            const float *p = mesh->pos + 3 * mesh->tri[3 * t + k];
+            z += raster.bary[3 * i + k] * (rotation[6] * p[0] + rotation[7] * p[1] + rotation[8] * p[2]);
+        }
+        depth->data[i] = t >= 0 ? scale * z + offset : 0.0f;
+    }
+    hd_uv_raster_free(&raster);
+    return st;
+}

@@ -106,4 +106,9 @@ void hd_mesh_vertex_normals(const hd_mesh *mesh, const float *pos, float *normal
  * the light passes `softness` cm under the face (0 deepest in shadow); 1 off the mesh. */
 hd_status hd_mesh_cast_shadow_uv(const hd_mesh *mesh, const float rotation[9], const float direction[3], int size,
                                  float softness, hd_image *visibility);
+/* The camera-frame depth (toward the camera) of the mesh posed as an aligned face is, scale *
+ * (rotation p)_z + offset, at each texel of a size x size UV map (0 off the mesh): what `hdnet
+ * serve` warps into the photo for its page to cast the same shadows in. */
+hd_status hd_mesh_posed_depth_uv(const hd_mesh *mesh, float scale, const float rotation[9], float offset, int size,
+                                 hd_image *depth);
 #endif /* HD_MESH_H */

@@ -21,7 +21,7 @@ const char *const serve_map_names[SERVE_MAPS] = {
     "photo",       "normal",      "shading",          "mask",           "weight",
     "skin",        "head_normal", "head_proxy",       "head_weights",   "head_mesh",
     "body_weight", "body_level",  "body_head_normal", "body_head_proxy", "body_head_weights",
-    "body_head_mesh", "people"};
+    "body_head_mesh", "people", "depth"};
 
 void serve_photo_free(serve_photo *p)
 {
@@ -70,7 +70,7 @@ static hd_status feather(hd_image *mask, int r)
 
 /* The photo-sized maps the maps are built in (before encoding). */
 typedef struct face_maps {
-    hd_image normal, shading, mask, skin;
+    hd_image normal, shading, mask, skin, depth; /* depth: -INFINITY off the faces */
 } face_maps;
 
 /* Adds face f's normals and shading (decomposition d) and its skin (the mesh outside the regions
@@ -81,7 +81,13 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
     /* two warps: the normals, and the shading and regions as the planes of one texture
      * (hd_warp_back takes at most 4 channels) */
     hd_image n_tex = {0}, r_tex = {0}, s_tex = {0}, tex = {0}, n_ph = {0}, ph = {0}, cover = {0}, cover2 = {0};
+    hd_image z_tex = {0}, z_ph = {0}, cover3 = {0};
+    const hd_mesh *mesh = NULL;
     hd_status st = hd_normal_resize(&d->normal, f->size, f->size, &n_tex);
+    /* the mesh's depth as the render's cast shadows pose it (hd_mesh_cast_shadow_uv), in photo pixels */
+    if (st == HD_OK) st = hd_mesh_canonical(&mesh);
+    if (st == HD_OK) st = hd_mesh_posed_depth_uv(mesh, f->scale, f->rotation, f->translation[2], f->size, &z_tex);
+    if (st == HD_OK) st = hd_warp_back(f, &z_tex, &f->mask, &z_ph, &cover3);
     if (st == HD_OK) st = hd_image_resize(&d->shading, f->size, f->size, &s_tex);
     if (st == HD_OK) st = hd_face_regions_uv(f->size, &r_tex);
     if (st == HD_OK) st = hd_image_alloc(&tex, f->size, f->size, 2);
@@ -103,8 +109,10 @@ static hd_status add_face_maps(const hd_aligned_face *f, const hd_decomposition 
             fm->mask.data[p] = 1.0f;
             fm->skin.data[p] = regions[p] <= 0.5f ? 1.0f : 0.0f;
         }
+        for (size_t p = 0; p < HW; p++)
+            if (cover3.data[p] > 0.0f) fm->depth.data[p] = z_ph.data[p];
     }
-    hd_image *all[] = {&n_tex, &r_tex, &s_tex, &tex, &n_ph, &ph, &cover, &cover2};
+    hd_image *all[] = {&n_tex, &r_tex, &s_tex, &tex, &n_ph, &ph, &cover, &cover2, &z_tex, &z_ph, &cover3};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     return st;
 }
@@ -219,6 +227,28 @@ static int background_can_be_relit(serve_photo *p, const hd_aligned_face *faces)
     return 1;
 }
 
+/* The depth map as 8-bit RGB: B 1 on a face (0 off them), R and G the high and low bytes of 1 + 8 x
+ * (depth - z0), z0 the least depth on the faces (written to *z0). */
+static hd_status encode_depth(const hd_image *depth, float *z0, serve_blob *png)
+{
+    const size_t P = (size_t)depth->width * depth->height;
+    float lo = INFINITY;
+    for (size_t p = 0; p < P; p++)
+        if (isfinite(depth->data[p])) lo = fminf(lo, depth->data[p]);
+    *z0 = isfinite(lo) ? lo : 0.0f;
+    hd_image rgb = {0};
+    hd_status st = hd_image_alloc(&rgb, depth->width, depth->height, 3);
+    for (size_t p = 0; st == HD_OK && p < P; p++) {
+        const float z = depth->data[p];
+        const long v = isfinite(z) ? 1 + lroundf(fminf(8.0f * (z - *z0), 65534.0f)) : 0;
+        rgb.data[p] = (float)(v >> 8) / 255.0f, rgb.data[P + p] = (float)(v & 255) / 255.0f;
+        rgb.data[2 * P + p] = v ? 1.0f : 0.0f;
+    }
+    if (st == HD_OK) st = serve_picture_encode_png(&rgb, png);
+    hd_image_free(&rgb);
+    return st;
+}
+
 /* The maps of a photo as PNGs: the photo, normals as (n + 1) / 2 (0 off the faces), shading as
  * s / 2, the feathered mask, the skin (1 where the render's log r is the model's own, 0 where it is
  * filled), and each background mode's (mode_maps; weights with a weight above 0 but under half a
@@ -236,6 +266,8 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = hd_image_alloc(&fm.shading, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.mask, W, H, 1);
     if (st == HD_OK) st = hd_image_alloc(&fm.skin, W, H, 1);
+    if (st == HD_OK) st = hd_image_alloc(&fm.depth, W, H, 1);
+    for (size_t q = 0; st == HD_OK && q < (size_t)W * H; q++) fm.depth.data[q] = -INFINITY;
     if (st == HD_OK) st = mode_maps_alloc(&keep, W, H, 0);
     if (st == HD_OK && p->background_relit) st = mode_maps_alloc(&body, W, H, 1);
     float *scratch = st == HD_OK ? hd_malloc((size_t)W * H * sizeof(float)) : NULL;
@@ -243,6 +275,7 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     float face_side = 0.0f;
     for (int k = 0; k < p->nfaces && st == HD_OK; k++) {
         serve_face *sf = &p->faces[k];
+        sf->scale = faces[k].scale;
         st = add_face_maps(&faces[k], &ds[k], &fm);
         if (st == HD_OK) st = add_face_weight(&faces[k], &ds[k], &p->image, k, scratch, &keep, sf->head, sf);
         if (st == HD_OK && p->background_relit)
@@ -260,12 +293,13 @@ static hd_status make_maps(serve_photo *p, const hd_aligned_face *faces, const h
     if (st == HD_OK) st = serve_picture_encode_png(&fm.shading, &p->maps[SERVE_MAP_SHADING]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.mask, &p->maps[SERVE_MAP_MASK]);
     if (st == HD_OK) st = serve_picture_encode_png(&fm.skin, &p->maps[SERVE_MAP_SKIN]);
+    if (st == HD_OK) st = encode_depth(&fm.depth, &p->depth_z0, &p->maps[SERVE_MAP_DEPTH]);
     if (st == HD_OK) st = encode_mode(&keep, p->maps, SERVE_MAP_WEIGHT, -1, SERVE_MAP_HEAD_NORMAL, -1);
     if (st == HD_OK && p->background_relit)
         st = encode_mode(&body, p->maps, SERVE_MAP_BODY_WEIGHT, SERVE_MAP_BODY_LEVEL, SERVE_MAP_BODY_HEAD_NORMAL,
                          SERVE_MAP_PEOPLE);
     free(scratch);
-    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &encoded};
+    hd_image *all[] = {&fm.normal, &fm.shading, &fm.mask, &fm.skin, &fm.depth, &encoded};
     for (size_t k = 0; k < sizeof all / sizeof all[0]; k++) hd_image_free(all[k]);
     mode_maps_free(&keep);
     mode_maps_free(&body);

@@ -62,6 +62,7 @@ typedef struct serve_face {
     float head_guard; /* the head's guard g (hd_head) */
     float head_blur;  /* the blur of the head's log ratios, sigma in photo pixels (hd_head_blur) */
     int body_head[4]; /* the head's window with the body (the background relit); w 0: none */
+    float scale;      /* the mesh's fit: photo pixels per cm (the cast shadows' softness, in the page) */
 } serve_face;
 
 /* The maps the page relights with, all at the photo's size (docs/serve.md, "The page"). The body_*
@@ -70,9 +71,10 @@ typedef struct serve_face {
 enum { SERVE_MAP_PHOTO = 0, SERVE_MAP_NORMAL, SERVE_MAP_SHADING, SERVE_MAP_MASK, SERVE_MAP_WEIGHT, SERVE_MAP_SKIN,
        SERVE_MAP_HEAD_NORMAL, SERVE_MAP_HEAD_PROXY, SERVE_MAP_HEAD_WEIGHTS, SERVE_MAP_HEAD_MESH,
        SERVE_MAP_BODY_WEIGHT, SERVE_MAP_BODY_LEVEL, SERVE_MAP_BODY_HEAD_NORMAL, SERVE_MAP_BODY_HEAD_PROXY,
-       SERVE_MAP_BODY_HEAD_WEIGHTS, SERVE_MAP_BODY_HEAD_MESH, SERVE_MAP_PEOPLE, SERVE_MAPS };
+       SERVE_MAP_BODY_HEAD_WEIGHTS, SERVE_MAP_BODY_HEAD_MESH, SERVE_MAP_PEOPLE, SERVE_MAP_DEPTH, SERVE_MAPS };
 /* "photo", "normal", "shading", "mask", "weight", "skin", "head_normal", "head_proxy", "head_weights",
- * "head_mesh", then "body_" before weight, level and the four head maps, and "people" */
+ * "head_mesh", then "body_" before weight, level and the four head maps, "people", and "depth" (the
+ * faces' meshes' depth, for their cast shadows: serve_photo.depth_z0) */
 extern const char *const serve_map_names[SERVE_MAPS];
 
 typedef struct serve_photo {
@@ -84,6 +86,8 @@ typedef struct serve_photo {
     serve_blob maps[SERVE_MAPS]; /* each an 8-bit PNG (the background's empty without background_relit) */
     int background_relit;        /* the photo has the maps of the background relit ... */
     char background_reason[192]; /* ... or why not */
+    float depth_z0;     /* the "depth" map's origin: a pixel's depth is depth_z0 + (256 R + G - 1) / 8 photo
+                         * pixels toward the camera where B is 255 (no face where B is 0) */
     /* owned by the store */
     unsigned long last_used;
     int refs;

@@ -146,6 +146,7 @@ static cJSON *photo_json(const serve_server *s, const serve_photo *p, const char
         cJSON_AddNumberToObject(o, "score", round((double)f->score * 1000.0) / 1000.0);
         cJSON_AddItemToObject(o, "light", float_array(f->light, HD_SH_COEFFS, precise));
         add_direction(o, f->light);
+        cJSON_AddNumberToObject(o, "scale", precise(f->scale));
         cJSON *lm = cJSON_AddArrayToObject(o, "landmarks");
         for (int i = 0; i < HD_FACE_LANDMARKS; i++) cJSON_AddItemToArray(lm, float_array(f->landmarks[i], 2, tenth));
         if (f->head[2] > 0) { /* the head's window and rule (the head_* maps hold it) */
@@ -168,6 +169,9 @@ static cJSON *photo_json(const serve_server *s, const serve_photo *p, const char
     cJSON_AddItemToArray(modes, cJSON_CreateString("keep"));
     if (p->background_relit) cJSON_AddItemToArray(modes, cJSON_CreateString("relight"));
     else cJSON_AddStringToObject(j, "background_reason", p->background_reason);
+    cJSON *depth = cJSON_AddObjectToObject(j, "depth"); /* the depth map's code (serve_photo.depth_z0) */
+    cJSON_AddNumberToObject(depth, "z0", precise(p->depth_z0));
+    cJSON_AddNumberToObject(depth, "step", 0.125);
     cJSON *maps = cJSON_AddObjectToObject(j, "maps");
     for (int m = 0; m < SERVE_MAPS; m++) {
         if (!p->maps[m].size) continue; /* the background relit's, for a photo without them */

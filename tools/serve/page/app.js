@@ -259,6 +259,61 @@
   // texture's side) and the eye distance in the texture (models/canonical_face_model.obj's UV
   // layout), which turns it into photo pixels. The weights and the skin are the server's maps.
   const RATIO_GUARD = 0.01, RATIO_BLUR = 0.012, EYE_DISTANCE_UV = 0.3076;
+  // cast shadows (src/apply/rule.c, src/mesh/cast_shadow.c): the softness and the first step of the
+  // march in cm of the face mesh, the least share of a shading a shadow leaves
+  const SHADOW_SOFTNESS = 0.3, SHADOW_START = 0.16, SHADOW_FLOOR = 0.4;
+
+  // The depth map (the server's "depth": each face's posed mesh, photo pixels toward the camera;
+  // -Infinity off the faces) and its highest value.
+  function decodeDepth(depth, code) {
+    const n = depth.width * depth.height, z = new Float32Array(n);
+    let top = -Infinity;
+    for (let p = 0; p < n; p++) {
+      const o = 4 * p;
+      z[p] = depth.data[o + 2] === 255 ? code.z0 + (256 * depth.data[o] + depth.data[o + 1] - 1) * code.step : -Infinity;
+      if (z[p] > top) top = z[p];
+    }
+    return { W: depth.width, H: depth.height, z, top };
+  }
+
+  // hd_light_distant_part: the distant light of a light's first band, its direction d (camera frame)
+  // and the light of lightFromDirection along d with no ambient; null for a light with no first band.
+  const UNIT_BAND = Math.hypot(...lightFromDirection(0, 0, 1, 0).slice(1, 4));
+  function distantPart(l) {
+    const x = l[3], y = l[2], z = -l[1], len = Math.hypot(x, y, z);
+    if (!(len > 1e-12)) return null;
+    const d = [x / len, y / len, z / len];
+    return { d, light: lightFromDirection(Math.atan2(d[0], d[2]) * 180 / Math.PI, Math.asin(d[1]) * 180 / Math.PI, len / UNIT_BAND, 0) };
+  }
+
+  // hd_mesh_cast_shadow_uv in the photo: how much of the light from d the face's point at pixel p
+  // (depth z) sees, marching one pixel at a time over the depth map toward the light (scale: the
+  // face's photo pixels per cm); 1 lit, 0 in full shadow.
+  function visibility(D, p, d, scale) {
+    const dxy = Math.hypot(d[0], d[1]);
+    if (dxy < 1e-4) return 1;
+    const x0 = p % D.W, y0 = (p - x0) / D.W, z0 = D.z[p], sx = d[0] / dxy, sy = -d[1] / dxy, sz = d[2] / dxy;
+    const soft = SHADOW_SOFTNESS * scale;
+    let depth = 0;
+    for (let s = SHADOW_START * scale; ; s += 1) {
+      const zr = z0 + s * sz;
+      if (zr > D.top && sz >= 0) break;
+      const x = Math.round(x0 + s * sx), y = Math.round(y0 + s * sy);
+      if (x < 0 || y < 0 || x >= D.W || y >= D.H) break;
+      const zs = D.z[y * D.W + x];
+      if (zs - zr > depth) depth = zs - zr;
+    }
+    const t = Math.min(1, depth / soft);
+    return 1 - t * t * (3 - 2 * t);
+  }
+
+  // The shading of light l at normal n with its cast shadows: s' = max(s - (1 - V) max(s_d, 0),
+  // SHADOW_FLOOR s), part the light's distantPart (null: none).
+  function shadowed(s, l, part, V, x, y, z) {
+    if (!part || V >= 1) return s;
+    const lit = s - (1 - V) * Math.max(shade(part.light, x, y, z), 0);
+    return Math.max(lit, SHADOW_FLOOR * s);
+  }
   // The heads' two planes are blurred by box passes past a radius of 4 pixels (a face over about 20
   // pixels between the eyes): on the test photo as close to the render as the exact Gaussian (the
   // head's blur is over 0.06 eye distances, smoother than what it blurs), at a third of the cost.
@@ -386,8 +441,9 @@
   // server's body_level map (the weight without the body's share, whose luminance the brightness
   // keeps: hd_head_level) and people its people map (the wall takes 1 - people of its change);
   // both null with the background kept.
-  function prepareMaps(photo, normal, weight, skin, head, faces, level, people) {
+  function prepareMaps(photo, normal, weight, skin, head, faces, level, people, depth) {
     const W = photo.width, H = photo.height, n = W * H;
+    const parts = faces.map((f) => distantPart(f.light));
     const owner = new Int16Array(n).fill(-1);
     faces.forEach((f, k) => {
       const xs = f.landmarks.map((q) => q[0]), ys = f.landmarks.map((q) => q[1]), e = Math.ceil(eyeDistance(f)) + 2;
@@ -415,7 +471,8 @@
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
       level: new Uint8Array(count), top: new Float32Array(count), wLum: new Float32Array(count), goal: 0,
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
-      face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count),
+      face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count), depth,
+      scale: faces.map((f) => f.scale), shadow: new Uint8Array(count),
       faces: faces.length, fill: count ? pyramid(ww, wh) : null, known: new Float32Array(count ? ww * wh : 0),
       blurTmp: new Float32Array(count ? ww * wh : 0),
       sigma: RATIO_BLUR / EYE_DISTANCE_UV * Math.min(...faces.map(eyeDistance)),
@@ -446,6 +503,10 @@
         m.nrm[3 * j] = x, m.nrm[3 * j + 1] = y, m.nrm[3 * j + 2] = z;
         m.src[j] = Math.max(shade(faces[k].light, x, y, z), 0);
         sum[k] += m.src[j], num[k]++;
+        // the face's own light casts its shadows too (the guard is of the shading without them)
+        m.shadow[j] = depth && depth.z[p] > -Infinity ? 1 : 0;
+        if (m.shadow[j] && parts[k])
+          m.src[j] = shadowed(m.src[j], faces[k].light, parts[k], visibility(depth, p, parts[k].d, faces[k].scale), x, y, z);
       }
       if (headOf[p] >= 0) {
         const hd = m.heads[headOf[p]];
@@ -550,10 +611,12 @@
   // the factor lowered for a pixel where a channel would pass 1.
   function relightInPage() {
     const m = background() === 'relight' ? state.mapsBody : state.maps, l = currentLight(), d = m.out.data;
-    const L = new Float32Array(m.n);
+    const L = new Float32Array(m.n), part = m.depth ? distantPart(l) : null;
     for (let j = 0; j < m.n; j++) {
       if (!m.skin[j]) continue;
-      const t = Math.max(shade(l, m.nrm[3 * j], m.nrm[3 * j + 1], m.nrm[3 * j + 2]), 0), g = m.guard[j];
+      const x = m.nrm[3 * j], y = m.nrm[3 * j + 1], z = m.nrm[3 * j + 2], g = m.guard[j];
+      let t = Math.max(shade(l, x, y, z), 0);
+      if (part && m.shadow[j]) t = shadowed(t, l, part, visibility(m.depth, m.px[j], part.d, m.scale[m.face[j]]), x, y, z);
       L[j] = t === m.src[j] ? 0 : Math.log((t + g) / (m.src[j] + g));
     }
     if (m.fill) { // the regions and beyond the meshes: log r filled from the skin's (hd_field_fill)
@@ -679,14 +742,16 @@
       const j = await uploadFile(file);
       const relit = j.backgrounds.includes('relight'), body = relit ? ['body_weight', 'body_level', 'body_head_normal',
         'body_head_proxy', 'body_head_weights', 'body_head_mesh', 'people'] : [];
-      const [photo, normal, weight, skin, hn, hp, hw, hm, ...bm] = await Promise.all(['photo', 'normal', 'weight', 'skin',
-        'head_normal', 'head_proxy', 'head_weights', 'head_mesh', ...body].map((k) => mapPixels(j.maps[k])));
+      const [photo, normal, weight, skin, hn, hp, hw, hm, dm, ...bm] = await Promise.all(['photo', 'normal', 'weight', 'skin',
+        'head_normal', 'head_proxy', 'head_weights', 'head_mesh', 'depth', ...body].map((k) => mapPixels(j.maps[k])));
       state.photo = j;
-      state.maps = prepareMaps(photo, normal, weight, skin, { normal: hn, proxy: hp, weights: hw, mesh: hm }, j.faces);
+      const depth = decodeDepth(dm, j.depth);
+      state.maps = prepareMaps(photo, normal, weight, skin, { normal: hn, proxy: hp, weights: hw, mesh: hm }, j.faces, null, null,
+        depth);
       // with the background relit: the body's maps, over the heads' windows with the body
       const bodyFaces = j.faces.map((f) => Object.assign({}, f, { head: f.head && Object.assign({}, f.head, { window: f.head.body_window }) }));
       state.mapsBody = relit ? prepareMaps(photo, normal, bm[0], skin, { normal: bm[2], proxy: bm[3], weights: bm[4], mesh: bm[5] },
-        bodyFaces, bm[1], bm[6]) : null;
+        bodyFaces, bm[1], bm[6], depth) : null;
       ui.backgroundRelight.disabled = !relit;
       ui.background.title = relit ? '' : j.background_reason;
       if (!relit) ui.background.querySelector('input[value="keep"]').checked = true;
