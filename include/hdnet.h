@@ -311,8 +311,8 @@ hd_background hd_model_background(const hd_model *model);
  * the brows' on the eyes, the upper lip's on the lower (docs/usage.md, "Cast shadows"). CAST (the
  * default): the face mesh in the head's pose casts the distant part of the face's own light and
  * of the target light, and the ratio rule takes both into account. NONE: no cast shadows (the rule
- * before version 0.1's session 27). An aligned texture has no pose, so never any. Sets it for
- * every later call with this model. */
+ * as it was before them). An aligned texture has no pose, so never any. Sets it for every later
+ * call with this model. */
 typedef enum { HD_SHADOWS_CAST = 0, HD_SHADOWS_NONE = 1 } hd_shadows;
 hd_status hd_model_set_shadows(hd_model *model, hd_shadows mode);
 hd_shadows hd_model_shadows(const hd_model *model);

@@ -334,6 +334,29 @@ static void test_cast_shadow_face(void)
     hd_image_free(&v);
 }
 
+/* hd_mesh_posed_depth_uv: the depth at the nose tip's texel (landmark 1) is scale z_1 + offset for
+ * the unturned mesh, and the mesh's depth turned half a turn about y is the negative; 0 off the
+ * mesh. */
+static void test_posed_depth(void)
+{
+    const hd_mesh *m = NULL;
+    CHECK(hd_mesh_canonical(&m) == HD_OK);
+    if (!m) return;
+    const int S = 256;
+    const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, back[9] = {-1, 0, 0, 0, 1, 0, 0, 0, -1};
+    hd_image a = {0}, b = {0};
+    CHECK(hd_mesh_posed_depth_uv(m, 2.0f, I, 5.0f, S, &a) == HD_OK);
+    CHECK(hd_mesh_posed_depth_uv(m, 2.0f, back, 5.0f, S, &b) == HD_OK);
+    if (!a.data || !b.data) return;
+    const int x = (int)(m->uv[2] * S), y = (int)(m->uv[3] * S);
+    CHECK_NEAR(a.data[(size_t)y * S + x], 2.0f * m->pos[5] + 5.0f, 0.1);
+    int same = 1;
+    for (size_t i = 0; i < (size_t)S * S; i++)
+        same &= a.data[i] == 0.0f ? b.data[i] == 0.0f : fabsf((a.data[i] - 5.0f) + (b.data[i] - 5.0f)) < 1e-4f;
+    CHECK(same && a.data[0] == 0.0f);
+    hd_image_free(&a), hd_image_free(&b);
+}
+
 int main(void)
 {
     test_canonical();
@@ -342,5 +365,6 @@ int main(void)
     test_normals();
     test_cast_shadow_ridge();
     test_cast_shadow_face();
+    test_posed_depth();
     return test_summary("test_mesh");
 }

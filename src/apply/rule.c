@@ -122,8 +122,8 @@ static hd_status cast_shadows(const float *normal, size_t P, int size, const flo
                               const float light[HD_SH_COEFFS], const float direction[3], hd_image *vis, float *shading,
                               float *scratch)
 {
-    float unused[3], part[HD_SH_COEFFS];
-    hd_light_distant_part(light, unused, part);
+    float own_direction[3], part[HD_SH_COEFFS]; /* light's own: a channel's may differ from direction */
+    hd_light_distant_part(light, own_direction, part);
     if (!vis->data) {
         const hd_mesh *mesh = NULL;
         hd_status st = hd_mesh_canonical(&mesh);
@@ -136,11 +136,10 @@ static hd_status cast_shadows(const float *normal, size_t P, int size, const flo
         if (st != HD_OK) return st;
     }
     hd_sh_shading_map(normal, NULL, (int)P, part, scratch);
-    const float floor_share = SHADOW_FLOOR;
     for (size_t p = 0; p < P; p++) {
         const float s = shading[p], direct = scratch[p] > 0 ? scratch[p] : 0.0f;
         const float lit = s - (1 - vis->data[p]) * direct;
-        shading[p] = lit > floor_share * s ? lit : floor_share * s;
+        shading[p] = lit > SHADOW_FLOOR * s ? lit : SHADOW_FLOOR * s;
     }
     return HD_OK;
 }

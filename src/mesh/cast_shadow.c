@@ -4,7 +4,8 @@
  * camera (its z toward the camera, in the mesh's cm); each texel's point on the mesh is marched
  * toward the light over that field, and the deepest the march passes under the surface says how
  * much of the light the texel still sees (docs/usage.md, "Cast shadows"). Orthographic: a face
- * a metre or more from the camera and a light far away. */
+ * a metre or more from the camera and a light far away. Also the posed mesh's depth in the same
+ * layout, which `hdnet serve` warps into the photo for its page to cast the same shadows. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
