@@ -510,7 +510,7 @@ hd_status hd_face_light(const hd_decomposition *d, const hd_image *mask, hd_sour
                         float light[HD_SH_COEFFS]);
 /* The light of a reference face, the target light a transfer takes from it (hd_estimate_light,
  * `hdnet transfer --ref`, `hdnet estimate-light`): with HD_SOURCE_FIT the fit of hd_face_light with
- * each texel weighted by 1 / max(n_z, 0.2)^2 and a weaker pull toward the lobe (src/mesh/reference_light.c;
+ * each texel weighted by 1 / max(n_z, 0.5)^2 and a weaker pull toward the lobe (src/mesh/reference_light.c;
  * docs/evaluation.md: its direction is nearer the truth on real photos); with HD_SOURCE_LNET d->light.
  * It is not the face's own light: relighting a face under its reference light changes it a little. */
 hd_status hd_reference_light(const hd_decomposition *d, const hd_image *mask, hd_source_light source,

@@ -103,7 +103,7 @@ int cmd_estimate_light(int argc, char **argv)
         "section 2): 9 spherical-harmonics coefficients in DPR's order and scale, loadable by `hdnet\n"
         "relight --light`. By default (--source-light fit) the least-squares light of the predicted shading\n"
         "on the predicted normals over the face's skin (the face below the nose weighted a quarter, each\n"
-        "texel by 1 / max(n_z, 0.2)^2), pulled a little toward the best ambient + distant light of that\n"
+        "texel by 1 / max(n_z, 0.5)^2), pulled a little toward the best ambient + distant light of that\n"
         "shading (not quite the relighting rule's own light of the face; docs/usage.md); with\n"
         "--source-light lnet L-Net's estimate itself (what decompose writes). Many inputs (files,\n"
         "folders walked recursively, @LIST files of paths) share one model load and write\n"

@@ -79,7 +79,7 @@ hd_status hd_face_light_fit(const float *normal, const float *shading, const flo
 /* The light of a reference face (reference_light.c): the target light transfer takes from it. As
  * hd_face_light_fit, but each texel's weight divided by max(n_z, HD_REF_NZ_FLOOR)^2 and the pull
  * toward the lobe fit (of the same weighted shading) HD_REF_PRIOR; weight: npix floats of scratch. */
-#define HD_REF_NZ_FLOOR 0.2f
+#define HD_REF_NZ_FLOOR 0.5f
 #define HD_REF_PRIOR 0.03f
 hd_status hd_reference_light_fit(const float *normal, const float *shading, const float *layout, const float *mask,
                                  int npix, float *weight, float light[HD_SH_COEFFS]);
