@@ -4,7 +4,8 @@
  * the light is dragged the page relights on its own, per pixel, by the rule of docs/usage.md
  * (relightInPage):
  *     out = I * exp(w * (log r + t)),   r = (max(s(N, l), 0) + g) / (max(s(N, l_face), 0) + g)
- * with s the SH shading of docs/conventions.md, g the guard, w the server's weight (the feather
+ * with s the SH shading of docs/conventions.md (both with the shadows the face casts, marched over
+ * the server's depth map of each face's posed mesh), g the guard, w the server's weight (the feather
  * inside the mesh's edge, the forehead grown to the hairline with its outward fade), the eyes,
  * mouth and brows and the pixels beyond the mesh taking log r filled from the skin's (push-pull,
  * as the render) and blurred as the render's, and t the offset that keeps the
