@@ -277,10 +277,11 @@ void hd_aligner_free(hd_aligner *aligner)
 /* The faces of nboxes detections: the face mesh fitted on each (MediaPipe's two passes) in seen,
  * those the landmark model doubts dropped (counted in *dropped), the rest aligned from the photo p3
  * into *out (allocated; *count of them). seen is p3 or a copy of it with its shadows lifted, the
- * same size. *last gets the reason of the last face that failed to align. */
+ * same size. presences (NULL, or nboxes floats) gets each aligned face's landmark presence, in the
+ * order of *out. *last gets the reason of the last face that failed to align. */
 static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, const hd_image *seen, const hd_image *p3,
                            int size, const hd_face_box *boxes, int nboxes, hd_aligned_face **out, int *count,
-                           int *dropped, hd_status *last)
+                           float *presences, int *dropped, hd_status *last)
 {
     *out = NULL;
     *count = 0;
@@ -304,6 +305,7 @@ static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, cons
             *last = fs;
             continue;
         }
+        if (presences) presences[*count] = presence;
         hd_aligned_face *f = &faces[(*count)++];
         f->score = boxes[b].score;
         f->box[0] = boxes[b].x0;
@@ -408,8 +410,88 @@ static hd_status refind(align_runner *aligner, const hd_mesh *canonical, float m
     *nboxes = 0;
     hd_status st = zoomed ? hd_face_detector_find_zoomed(aligner->detector, seen, min_score, boxes, nboxes)
                           : hd_face_detector_find(aligner->detector, seen, min_score, min_face, boxes, nboxes);
-    if (st == HD_OK) st = fit_boxes(aligner, canonical, seen, p3, size, *boxes, *nboxes, out, count, dropped, last);
+    if (st == HD_OK) st = fit_boxes(aligner, canonical, seen, p3, size, *boxes, *nboxes, out, count, NULL, dropped, last);
     return st;
+}
+
+/* Under hard side light the pyramid may find part of a tight crop's face (its lit half, or the nose
+ * and mouth) as a face of its own, and the landmark model, fitted in that box, follows it (Yale's
+ * A-050E+00, docs/face_detect.md). Where a face found crosses the photo's border or is wider or
+ * taller than CLOSE_UP_SHARE of the photo's shorter side (a crop or a close-up: a portrait with
+ * context has its faces well inside and smaller), the photo is seen zoomed out too: a face found
+ * there replaces every face whose box centre lies inside its own box when it is larger
+ * (WHOLE_FACE_AREA times the box) and its landmarks are at least as sure. */
+#define CLOSE_UP_SHARE 0.4f
+#define WHOLE_FACE_AREA 1.5f
+static float box_area(const float b[4]) { return (b[2] - b[0]) * (b[3] - b[1]); }
+
+static hd_status prefer_whole_faces(align_runner *aligner, const hd_mesh *canonical, float min_score,
+                                    const hd_image *p3, int size, hd_aligned_face **out, int *count,
+                                    const float *presences)
+{
+    const float W = (float)p3->width, H = (float)p3->height, close = CLOSE_UP_SHARE * (W < H ? W : H);
+    int doubt = 0;
+    for (int k = 0; k < *count; k++) {
+        const float *b = (*out)[k].box;
+        doubt |= b[0] < 0 || b[1] < 0 || b[2] > W || b[3] > H || b[2] - b[0] > close || b[3] - b[1] > close;
+    }
+    if (!doubt) return HD_OK;
+    hd_face_box *zb = NULL;
+    int nz = 0, zc = 0, zd = 0;
+    hd_aligned_face *zf = NULL;
+    hd_status zl = HD_OK;
+    hd_status st = hd_face_detector_find_zoomed(aligner->detector, p3, min_score, &zb, &nz);
+    float *zp = st == HD_OK && nz > 0 ? hd_malloc((size_t)nz * sizeof *zp) : NULL;
+    if (st == HD_OK && nz > 0 && !zp) st = HD_ERR_NOMEM;
+    if (st == HD_OK && nz > 0) st = fit_boxes(aligner, canonical, p3, p3, size, zb, nz, &zf, &zc, zp, &zd, &zl);
+    free(zb);
+    if (st == HD_ERR_NOMEM || zc == 0) {
+        hd_aligned_faces_free(zf, zc);
+        free(zp);
+        if (st != HD_ERR_NOMEM) hd_clear_error(); /* the zoom-out is a second opinion: finding none keeps the first */
+        return st == HD_ERR_NOMEM ? st : HD_OK;
+    }
+    hd_clear_error();
+    for (int z = 0; z < zc; z++) {
+        float Z[4]; /* a copy: zf[z] is moved out below */
+        memcpy(Z, zf[z].box, sizeof Z);
+        int inside = 0, sure = 1;
+        for (int k = 0; k < *count; k++) {
+            const float *b = (*out)[k].box, cx = 0.5f * (b[0] + b[2]), cy = 0.5f * (b[1] + b[3]);
+            if (cx < Z[0] || cx > Z[2] || cy < Z[1] || cy > Z[3]) continue;
+            inside++;
+            sure &= box_area(Z) >= WHOLE_FACE_AREA * box_area(b) && zp[z] >= presences[k];
+        }
+        if (!inside || !sure) continue;
+        /* the zoomed face takes the first place it covers; the others it covers go */
+        int kept = 0, placed = 0;
+        for (int k = 0; k < *count; k++) {
+            const float *b = (*out)[k].box, cx = 0.5f * (b[0] + b[2]), cy = 0.5f * (b[1] + b[3]);
+            const int covered = !(cx < Z[0] || cx > Z[2] || cy < Z[1] || cy > Z[3]);
+            if (covered && placed) {
+                hd_aligned_face_free(&(*out)[k]);
+                continue;
+            }
+            if (covered) {
+                hd_aligned_face_free(&(*out)[k]);
+                (*out)[k] = zf[z];
+                memset(&zf[z], 0, sizeof zf[z]);
+                placed = 1;
+            }
+            if (kept != k) (*out)[kept] = (*out)[k];
+            kept++;
+        }
+        *count = kept;
+    }
+    hd_aligned_faces_free(zf, zc);
+    free(zp);
+    for (int k = 1; k < *count; k++) /* largest score first, as found */
+        for (int j = k; j > 0 && (*out)[j].score > (*out)[j - 1].score; j--) {
+            hd_aligned_face t = (*out)[j];
+            (*out)[j] = (*out)[j - 1];
+            (*out)[j - 1] = t;
+        }
+    return HD_OK;
 }
 
 static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, float min_score, float min_face,
@@ -433,7 +515,14 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
     hd_aligned_face *out = NULL;
     hd_status last = HD_OK;
     if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
-    st = fit_boxes(aligner, canonical, p3, p3, size, boxes, nboxes, &out, count, &dropped, &last);
+    float *presences = nboxes > 0 ? hd_malloc((size_t)nboxes * sizeof *presences) : NULL;
+    if (nboxes > 0 && !presences) {
+        st = HD_ERR_NOMEM;
+        goto done;
+    }
+    st = fit_boxes(aligner, canonical, p3, p3, size, boxes, nboxes, &out, count, presences, &dropped, &last);
+    if (st == HD_OK && *count > 0) st = prefer_whole_faces(aligner, canonical, min_score, p3, size, &out, count, presences);
+    free(presences);
     /* what the pyramid found in a tight crop may be no face (the landmark model doubts it) while the
      * face itself, without context, scored under the threshold: the zoom-out of the crop */
     if (st == HD_OK && *count == 0 && nboxes > 0) {
