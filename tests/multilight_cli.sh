@@ -6,7 +6,8 @@
 # lights the image's LEFT, so hdnet's --dir azimuth is the negated one). The eval's relight row
 # makes the same pictures again, so it scores about 0 where the input unchanged does not, and a
 # lights.csv with the azimuths' signs flipped scores far worse: the conventions meet. Also: the
-# sheets, --lights, the JSON's counts, and bad input refused with the file named.
+# sheets, --lights, the JSON's counts, the per-subject means, and bad input refused with the file
+# named.
 set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
 HDNET=${HDNET:?HDNET must point at the hdnet tool}
@@ -58,6 +59,19 @@ n=$(json_num ml.json relight n)
 awk -v r="$relight" -v i="$input" 'BEGIN { exit !(r < 0.05 && i > 0.5 && i > 20 * r) }' ||
     fail "relight to the true direction scores $relight against the input's $input: expected about 0"
 awk -v t="$(json_num ml.json normals_deg mean)" 'BEGIN { exit !(t > 0 && t < 90) }' || fail "no normals score"
+# per subject: a table row each, and in the JSON each subject's 5 relight scores, whose two means
+# average to the whole row's mean (each subject has as many)
+for who in 001 008; do grep -q "^p$who " out.log || fail "the table lacks the per-subject row of p$who"; done
+subject_field() { # subject_field SUBJECT KEY FIELD: in ml.json's per_subject entry of SUBJECT
+    awk -v s="\"p$1\"" -v k="\"$2\":" -v f="\"$3\":" '$1 == "\"subject\":" { on = ($2 == s || $2 == s ",") }
+        on && $1 == k { in_k = 1 } on && in_k && $1 == f { gsub(/,/, "", $2); print $2; exit }' ml.json
+}
+r1=$(subject_field 001 relight mean) r2=$(subject_field 008 relight mean)
+[ "$(subject_field 001 relight n)" = 5 ] && [ "$(subject_field 008 relight n)" = 5 ] ||
+    fail "per subject: the relight rows do not hold 5 scores each"
+awk -v a="$r1" -v b="$r2" -v m="$relight" 'BEGIN { d = (a + b) / 2 - m; exit !(a != "" && b != "" && d * d <= 1e-12 + 1e-8 * m * m) }' ||
+    fail "per subject: relight means $r1 and $r2 do not average to the row's $relight"
+awk -v t="$(subject_field 008 normals_deg mean)" 'BEGIN { exit !(t > 0 && t < 90) }' || fail "per subject: no normals"
 for who in 001 008; do exists "sheets/p$who.png"; done
 set -- $(png_size sheets/p001.png)
 [ "$1" = 532 ] && [ "$2" = 796 ] || fail "sheet is $1 x $2, expected 4 columns x 6 rows of 128 px"

@@ -226,7 +226,10 @@ static int multilight_eval(const char *data, const char *model_path, hd_shadows 
     if (!json->quiet) cli_progress_finish(&ml_bar, ml_bar.total, NULL);
     hd_model_free(model);
     hd_aligner_free(aligner);
-    if (st != HD_OK) return cli_report("eval");
+    if (st != HD_OK) {
+        hd_ml_report_free(&r);
+        return cli_report("eval");
+    }
     if (!json->print) {
         printf("%d subjects, %d target lights: each subject's frontal photo against its real photo under each light\n"
                "scale-invariant MSE x 1000 over the face (lower is better; docs/evaluation.md)\n\n",
@@ -243,6 +246,16 @@ static int multilight_eval(const char *data, const char *model_path, hd_shadows 
             for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9.2f", r.per_light[k][j].mean);
             printf("\n");
         }
+        printf("\nper subject (mean; normals and the light's direction in degrees)\n%-12s", "subject");
+        for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9s", k == HD_ML_INPUT ? "input" : k == HD_ML_TRANSFER ? "transfer"
+                                                            : k == HD_ML_RELIGHT ? "relight" : "PS bound");
+        printf(" %9s %9s\n", "normals", "light");
+        for (int i = 0; i < r.nper_subject; i++) {
+            const hd_ml_subject *o = &r.per_subject[i];
+            printf("%-12.12s", o->name);
+            for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9.2f", o->rows[k].n ? o->rows[k].mean : NAN);
+            printf(" %9.2f %9.2f\n", o->normals.n ? o->normals.mean : NAN, o->light_error.n ? o->light_error.mean : NAN);
+        }
         printf("\nnormals against photometric stereo: %.2f degrees mean, %.2f median over %ld subjects\n"
                "(a flat front-facing map: %.2f; the coarse normals, the canonical mesh posed on the landmarks: %.2f)\n",
                r.normals.mean, r.normals.median, r.normals.n, r.normals_flat.mean, r.normals_coarse.mean);
@@ -253,9 +266,11 @@ static int multilight_eval(const char *data, const char *model_path, hd_shadows 
         for (int i = 0; i < r.nmissed; i++) printf("%s%s", i ? ", " : ": ", r.missed[i]);
         printf("\nphotos absent from the set: %d; dark, left out: %d\n", r.photos_absent, r.photos_dark);
     }
+    int code_out = CLI_EXIT_OK;
     if (json->print || json->out)
-        return emit_json(json, hd_ml_report_json(&r), json->out ? hd_ml_report_write_json(json->out, &r) : HD_OK);
-    return CLI_EXIT_OK;
+        code_out = emit_json(json, hd_ml_report_json(&r), json->out ? hd_ml_report_write_json(json->out, &r) : HD_OK);
+    hd_ml_report_free(&r);
+    return code_out;
 }
 
 /* What `hdnet eval` was asked: its options, DATA, and the relighting they describe. */
@@ -436,7 +451,8 @@ int cmd_eval(int argc, char **argv)
         "under the light estimated from another subject's photo (transfer), against the real photo\n"
         "(scale-invariant MSE x 1000 over the face), with the input unchanged and photometric stereo\n"
         "from the subject's other photos as rows; the model's normals against photometric stereo's;\n"
-        "the light estimated from each target photo against its true direction (docs/evaluation.md).",
+        "the light estimated from each target photo against its true direction; means per light and\n"
+        "per subject (docs/evaluation.md).",
         opts, 1, 2};
     char **pos = NULL;
     int npos = 0, code = 0;

@@ -278,6 +278,7 @@ typedef struct subject {
     int target[HD_ML_MAX_LIGHTS]; /* the row of each target light, -1 if absent or dark */
     int est_found[HD_ML_MAX_LIGHTS];
     float est[HD_ML_MAX_LIGHTS][HD_SH_COEFFS];
+    values rows[HD_ML_ROWS], normals, light_error; /* its own share of the run's lists */
 } subject;
 
 typedef struct run {
@@ -288,7 +289,7 @@ typedef struct run {
     hd_ml_report *r;
     void (*warn)(const char *message);
     subject *subj;
-    int nsubj;
+    int nsubj, nsubj0;
     values rows[HD_ML_ROWS], per_light[HD_ML_ROWS][HD_ML_MAX_LIGHTS];
     values normals, normals_flat, normals_coarse, light_error;
 } run;
@@ -409,7 +410,11 @@ static hd_status estimate_lights(run *R, void (*progress)(int done, int total, c
                     S->est_found[j] = 1;
                     float truth[3], got[3];
                     hd_ml_direction(R->set->rows[i].az, R->set->rows[i].el, truth);
-                    if (sh_direction(S->est[j], got)) st = push(&R->light_error, angle_deg(truth, got));
+                    if (sh_direction(S->est[j], got)) {
+                        const double e = angle_deg(truth, got);
+                        st = push(&R->light_error, e);
+                        if (st == HD_OK) st = push(&S->light_error, e);
+                    }
                 }
             }
             hd_image_free(&grey), hd_image_free(&rgb);
@@ -471,6 +476,7 @@ static hd_status model_rows(run *R, int s, const hd_image *frontal, const float 
         const double e = hd_ml_si_mse(g, truths[j].data, mask, P);
         st = push(&R->rows[row], e);
         if (st == HD_OK) st = push(&R->per_light[row][j], e);
+        if (st == HD_OK) st = push(&R->subj[s].rows[row], e);
         if (st == HD_OK && sheet) {
             hd_image *keep = row == HD_ML_RELIGHT ? &sheet[j].relit : &sheet[j].transfer;
             if (!keep->data) st = hd_image_convert(&res.relit[c], 3, keep);
@@ -604,7 +610,9 @@ static hd_status score_subject(run *R, int s, int *scored)
     float *mask = found ? maps.mask.data : NULL, *pred = hd_malloc((P ? P : 1) * sizeof(float));
     if (st == HD_OK && !pred) st = HD_ERR_NOMEM;
     if (st == HD_OK && found && R->o->sheets) st = hd_image_alloc(&ps_normal, frontal.width, frontal.height, 3);
+    const long had = R->normals.n;
     if (st == HD_OK && found) st = score_normals(R, &ps, &maps, P, &ps_normal);
+    if (st == HD_OK && R->normals.n > had) st = push(&R->subj[s].normals, R->normals.v[R->normals.n - 1]);
     /* the input unchanged and the bound, per target light */
     for (int j = 0; j < L && st == HD_OK && found; j++) {
         if (S->target[j] < 0 || !truths[j].data) continue;
@@ -618,9 +626,11 @@ static hd_status score_subject(run *R, int s, int *scored)
         double e = hd_ml_si_mse(pred, truths[j].data, mask, P);
         st = push(&R->rows[HD_ML_PS], e);
         if (st == HD_OK) st = push(&R->per_light[HD_ML_PS][j], e);
+        if (st == HD_OK) st = push(&R->subj[s].rows[HD_ML_PS], e);
         e = hd_ml_si_mse(ph[fm].data, truths[j].data, mask, P);
         if (st == HD_OK) st = push(&R->rows[HD_ML_INPUT], e);
         if (st == HD_OK) st = push(&R->per_light[HD_ML_INPUT][j], e);
+        if (st == HD_OK) st = push(&R->subj[s].rows[HD_ML_INPUT], e);
         if (st == HD_OK && sheet) {
             st = hd_image_convert(&truths[j], 1, &sheet[j].truth);
             if (st == HD_OK) st = hd_image_alloc(&sheet[j].ps, frontal.width, frontal.height, 1);
@@ -661,6 +671,7 @@ hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const
     memset(&R, 0, sizeof R);
     R.set = &set, R.model = model, R.aligner = aligner, R.o = o, R.r = r, R.warn = warn;
     st = group_subjects(&R);
+    R.nsubj0 = R.nsubj; /* every subject's lists are freed, also those past --limit */
     if (st == HD_OK && o->limit > 0 && o->limit < R.nsubj) R.nsubj = o->limit;
     if (st == HD_OK && o->sheets) st = hd_mkdirs(o->sheets);
     for (int s = 0; s < R.nsubj && st == HD_OK; s++) {
@@ -682,11 +693,26 @@ hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const
     }
     r->normals = summary(&R.normals), r->normals_flat = summary(&R.normals_flat), r->light_error = summary(&R.light_error);
     r->normals_coarse = summary(&R.normals_coarse);
+    r->per_subject = R.nsubj > 0 ? hd_calloc((size_t)R.nsubj, sizeof *r->per_subject) : NULL;
+    if (st == HD_OK && R.nsubj > 0 && !r->per_subject) st = HD_ERR_NOMEM;
+    for (int s = 0; r->per_subject && s < R.nsubj; s++) {
+        hd_ml_subject *o = &r->per_subject[r->nper_subject];
+        subject *S = &R.subj[s];
+        if (S->frontal < 0) continue;
+        snprintf(o->name, sizeof o->name, "%s", S->name);
+        for (int k = 0; k < HD_ML_ROWS; k++) o->rows[k] = summary(&S->rows[k]);
+        o->normals = summary(&S->normals), o->light_error = summary(&S->light_error);
+        r->nper_subject++;
+    }
     for (int k = 0; k < HD_ML_ROWS; k++) {
         free(R.rows[k].v);
         for (int j = 0; j < HD_ML_MAX_LIGHTS; j++) free(R.per_light[k][j].v);
     }
     free(R.normals.v), free(R.normals_flat.v), free(R.normals_coarse.v), free(R.light_error.v);
+    for (int s = 0; R.subj && s < R.nsubj0; s++) {
+        for (int k = 0; k < HD_ML_ROWS; k++) free(R.subj[s].rows[k].v);
+        free(R.subj[s].normals.v), free(R.subj[s].light_error.v);
+    }
     free(R.subj);
     hd_ml_set_free(&set);
     return st;
@@ -737,6 +763,16 @@ char *hd_ml_report_json(const hd_ml_report *r)
     cJSON_AddNumberToObject(root, "photos_absent", r->photos_absent);
     cJSON_AddNumberToObject(root, "photos_dark", r->photos_dark);
     for (int i = 0; i < r->nmissed; i++) cJSON_AddItemToArray(missed, cJSON_CreateString(r->missed[i]));
+    cJSON *subjects = cJSON_AddArrayToObject(root, "per_subject");
+    for (int i = 0; subjects && i < r->nper_subject; i++) {
+        const hd_ml_subject *o = &r->per_subject[i];
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddStringToObject(e, "subject", o->name);
+        for (int k = 0; k < HD_ML_ROWS; k++) cJSON_AddItemToObject(e, ROW_KEYS[k], stat_json(&o->rows[k]));
+        cJSON_AddItemToObject(e, "normals_deg", stat_json(&o->normals));
+        cJSON_AddItemToObject(e, "light_error_deg", stat_json(&o->light_error));
+        cJSON_AddItemToArray(subjects, e);
+    }
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
     if (!text) hd_fail(HD_ERR_NOMEM, "eval: out of memory for the report");
@@ -746,6 +782,14 @@ char *hd_ml_report_json(const hd_ml_report *r)
 hd_status hd_ml_report_write_json(const char *path, const hd_ml_report *r)
 {
     return hd_eval_json_write(path, hd_ml_report_json(r));
+}
+
+void hd_ml_report_free(hd_ml_report *r)
+{
+    if (!r) return;
+    free(r->per_subject);
+    r->per_subject = NULL;
+    r->nper_subject = 0;
 }
 
 const char *hd_ml_row_name(int row) { return row >= 0 && row < HD_ML_ROWS ? ROW_NAMES[row] : "?"; }

@@ -68,6 +68,13 @@ typedef struct hd_ml_stat {
     double mean, median;
     long n;
 } hd_ml_stat;
+/* One subject's means: each row over its lights (and references), its normals' mean angle, the
+ * light estimated from its target photos against the truth; n 0 where it has none. */
+typedef struct hd_ml_subject {
+    char name[64];
+    hd_ml_stat rows[HD_ML_ROWS];
+    hd_ml_stat normals, light_error;
+} hd_ml_subject;
 typedef struct hd_ml_report {
     int nlights;
     float az[HD_ML_MAX_LIGHTS], el[HD_ML_MAX_LIGHTS];
@@ -78,8 +85,11 @@ typedef struct hd_ml_report {
     int subjects, sources_missed, refs_missed, photos_absent, photos_dark;
     char missed[HD_ML_MAX_MISSED][64];              /* the first photos whose face was not found */
     int nmissed;
+    hd_ml_subject *per_subject;                     /* each subject's means (allocated; hd_ml_report_free) */
+    int nper_subject;
 } hd_ml_report;
-/* Scores model on the set in dir. warn (may be NULL) hears what is skipped, progress (may be NULL)
+void hd_ml_report_free(hd_ml_report *report);
+/* Scores model on the set in dir (report freed with hd_ml_report_free, also on failure). warn (may be NULL) hears what is skipped, progress (may be NULL)
  * each step done (done of total: the lights of a subject's target photos estimated, then a subject
  * scored). */
 hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_ml_options *options,
