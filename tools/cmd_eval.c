@@ -213,6 +213,13 @@ static int parse_ml_lights(const cli_cmd_spec *spec, const char *text, hd_ml_opt
     return 0;
 }
 
+/* The short names of the rows, as the heads of the per-light and per-subject tables' columns. */
+static void ml_row_heads(void)
+{
+    for (int k = 0; k < HD_ML_ROWS; k++)
+        printf(" %9s", k == HD_ML_INPUT ? "input" : k == HD_ML_TRANSFER ? "transfer" : k == HD_ML_RELIGHT ? "relight" : "PS bound");
+}
+
 static int multilight_eval(const char *data, const char *model_path, hd_shadows shadows, const hd_ml_options *o,
                            const json_out *json)
 {
@@ -238,8 +245,7 @@ static int multilight_eval(const char *data, const char *model_path, hd_shadows 
         for (int k = 0; k < HD_ML_ROWS; k++)
             printf("%-42s %8.2f %8.2f %6ld\n", hd_ml_row_name(k), r.rows[k].median, r.rows[k].mean, r.rows[k].n);
         printf("\nper light (mean; the set's convention: azimuth > 0 lights the image's left)\n%-12s", "light");
-        for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9s", k == HD_ML_INPUT ? "input" : k == HD_ML_TRANSFER ? "transfer"
-                                                            : k == HD_ML_RELIGHT ? "relight" : "PS bound");
+        ml_row_heads();
         printf("\n");
         for (int j = 0; j < r.nlights; j++) {
             printf("A%+04.0fE%+03.0f  ", r.az[j], r.el[j]);
@@ -247,8 +253,7 @@ static int multilight_eval(const char *data, const char *model_path, hd_shadows 
             printf("\n");
         }
         printf("\nper subject (mean; normals and the light's direction in degrees)\n%-12s", "subject");
-        for (int k = 0; k < HD_ML_ROWS; k++) printf(" %9s", k == HD_ML_INPUT ? "input" : k == HD_ML_TRANSFER ? "transfer"
-                                                            : k == HD_ML_RELIGHT ? "relight" : "PS bound");
+        ml_row_heads();
         printf(" %9s %9s\n", "normals", "light");
         for (int i = 0; i < r.nper_subject; i++) {
             const hd_ml_subject *o = &r.per_subject[i];

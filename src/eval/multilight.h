@@ -89,9 +89,9 @@ typedef struct hd_ml_report {
     int nper_subject;
 } hd_ml_report;
 void hd_ml_report_free(hd_ml_report *report);
-/* Scores model on the set in dir (report freed with hd_ml_report_free, also on failure). warn (may be NULL) hears what is skipped, progress (may be NULL)
- * each step done (done of total: the lights of a subject's target photos estimated, then a subject
- * scored). */
+/* Scores model on the set in dir (the report freed with hd_ml_report_free, also on failure). warn
+ * (may be NULL) hears what is skipped, progress (may be NULL) each step done (done of total: the
+ * lights of a subject's target photos estimated, then a subject scored). */
 hd_status hd_ml_run(const char *dir, hd_model *model, hd_aligner *aligner, const hd_ml_options *options,
                     hd_ml_report *report, void (*warn)(const char *message),
                     void (*progress)(int done, int total, const char *subject));
