@@ -277,18 +277,20 @@ void hd_aligner_free(hd_aligner *aligner)
 /* The faces of nboxes detections: the face mesh fitted on each (MediaPipe's two passes) in seen,
  * those the landmark model doubts dropped (counted in *dropped), the rest aligned from the photo p3
  * into *out (allocated; *count of them). seen is p3 or a copy of it with its shadows lifted, the
- * same size. presences (NULL, or nboxes floats) gets each aligned face's landmark presence, in the
- * order of *out. *last gets the reason of the last face that failed to align. */
+ * same size. presences (may be NULL) gets each aligned face's landmark presence, in the order of
+ * *out (allocated with it). *last gets the reason of the last face that failed to align. */
 static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, const hd_image *seen, const hd_image *p3,
                            int size, const hd_face_box *boxes, int nboxes, hd_aligned_face **out, int *count,
-                           float *presences, int *dropped, hd_status *last)
+                           float **presences, int *dropped, hd_status *last)
 {
     *out = NULL;
     *count = 0;
+    if (presences) *presences = NULL;
     if (nboxes <= 0) return HD_OK;
     hd_aligned_face *faces = hd_calloc((size_t)nboxes, sizeof *faces);
     float (*landmarks)[3] = hd_malloc(sizeof(float[HD_FACE_LANDMARKS][3]));
-    hd_status st = faces && landmarks ? HD_OK : HD_ERR_NOMEM;
+    float *sure = presences ? hd_malloc((size_t)nboxes * sizeof *sure) : NULL;
+    hd_status st = faces && landmarks && (sure || !presences) ? HD_OK : HD_ERR_NOMEM;
     for (int b = 0; b < nboxes && st == HD_OK; b++) {
         float presence = 1;
         hd_status fs = hd_face_mesh_fit(aligner->landmarks, seen, &boxes[b], 2, landmarks, &presence);
@@ -305,7 +307,7 @@ static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, cons
             *last = fs;
             continue;
         }
-        if (presences) presences[*count] = presence;
+        if (sure) sure[*count] = presence;
         hd_aligned_face *f = &faces[(*count)++];
         f->score = boxes[b].score;
         f->box[0] = boxes[b].x0;
@@ -316,10 +318,12 @@ static hd_status fit_boxes(align_runner *aligner, const hd_mesh *canonical, cons
     free(landmarks);
     if (st != HD_OK) {
         hd_aligned_faces_free(faces, *count);
+        free(sure);
         *count = 0;
         return st;
     }
     *out = faces;
+    if (presences) *presences = sure;
     return HD_OK;
 }
 
@@ -396,11 +400,13 @@ static hd_status lift_shadows(const hd_image *p3, hd_image *out)
     return HD_OK;
 }
 
-/* Another round of detection and fit after one that aligned no face: the boxes found in seen (by
- * the pyramid, or zoomed out of the crop when zoomed) replace *boxes, and their faces *out. */
+/* Another round of detection and fit: the boxes found in seen (by the pyramid, or zoomed out of the
+ * crop when zoomed) replace *boxes, and their faces *out (with their presences when asked, as
+ * fit_boxes). */
 static hd_status refind(align_runner *aligner, const hd_mesh *canonical, float min_score, float min_face,
                         const hd_image *seen, const hd_image *p3, int size, int zoomed, hd_face_box **boxes,
-                        int *nboxes, hd_aligned_face **out, int *count, int *dropped, hd_status *last)
+                        int *nboxes, hd_aligned_face **out, int *count, float **presences, int *dropped,
+                        hd_status *last)
 {
     hd_aligned_faces_free(*out, *count);
     *out = NULL;
@@ -410,7 +416,7 @@ static hd_status refind(align_runner *aligner, const hd_mesh *canonical, float m
     *nboxes = 0;
     hd_status st = zoomed ? hd_face_detector_find_zoomed(aligner->detector, seen, min_score, boxes, nboxes)
                           : hd_face_detector_find(aligner->detector, seen, min_score, min_face, boxes, nboxes);
-    if (st == HD_OK) st = fit_boxes(aligner, canonical, seen, p3, size, *boxes, *nboxes, out, count, NULL, dropped, last);
+    if (st == HD_OK) st = fit_boxes(aligner, canonical, seen, p3, size, *boxes, *nboxes, out, count, presences, dropped, last);
     return st;
 }
 
@@ -424,6 +430,11 @@ static hd_status refind(align_runner *aligner, const hd_mesh *canonical, float m
 #define CLOSE_UP_SHARE 0.4f
 #define WHOLE_FACE_AREA 1.5f
 static float box_area(const float b[4]) { return (b[2] - b[0]) * (b[3] - b[1]); }
+static int centre_inside(const float b[4], const float Z[4])
+{
+    const float cx = 0.5f * (b[0] + b[2]), cy = 0.5f * (b[1] + b[3]);
+    return cx >= Z[0] && cx <= Z[2] && cy >= Z[1] && cy <= Z[3];
+}
 
 static hd_status prefer_whole_faces(align_runner *aligner, const hd_mesh *canonical, float min_score,
                                     const hd_image *p3, int size, hd_aligned_face **out, int *count,
@@ -439,41 +450,28 @@ static hd_status prefer_whole_faces(align_runner *aligner, const hd_mesh *canoni
     hd_face_box *zb = NULL;
     int nz = 0, zc = 0, zd = 0;
     hd_aligned_face *zf = NULL;
+    float *zp = NULL;
     hd_status zl = HD_OK;
-    hd_status st = hd_face_detector_find_zoomed(aligner->detector, p3, min_score, &zb, &nz);
-    float *zp = st == HD_OK && nz > 0 ? hd_malloc((size_t)nz * sizeof *zp) : NULL;
-    if (st == HD_OK && nz > 0 && !zp) st = HD_ERR_NOMEM;
-    if (st == HD_OK && nz > 0) st = fit_boxes(aligner, canonical, p3, p3, size, zb, nz, &zf, &zc, zp, &zd, &zl);
+    hd_status st = refind(aligner, canonical, min_score, 0, p3, p3, size, 1, &zb, &nz, &zf, &zc, &zp, &zd, &zl);
     free(zb);
-    if (st == HD_ERR_NOMEM || zc == 0) {
-        hd_aligned_faces_free(zf, zc);
-        free(zp);
-        if (st != HD_ERR_NOMEM) hd_clear_error(); /* the zoom-out is a second opinion: finding none keeps the first */
-        return st == HD_ERR_NOMEM ? st : HD_OK;
-    }
-    hd_clear_error();
+    if (st == HD_ERR_NOMEM) return st;
+    hd_clear_error(); /* the zoom-out is a second opinion: what it does not find keeps the first faces */
     for (int z = 0; z < zc; z++) {
         float Z[4]; /* a copy: zf[z] is moved out below */
         memcpy(Z, zf[z].box, sizeof Z);
         int inside = 0, sure = 1;
-        for (int k = 0; k < *count; k++) {
-            const float *b = (*out)[k].box, cx = 0.5f * (b[0] + b[2]), cy = 0.5f * (b[1] + b[3]);
-            if (cx < Z[0] || cx > Z[2] || cy < Z[1] || cy > Z[3]) continue;
-            inside++;
-            sure &= box_area(Z) >= WHOLE_FACE_AREA * box_area(b) && zp[z] >= presences[k];
-        }
+        for (int k = 0; k < *count; k++)
+            if (centre_inside((*out)[k].box, Z)) {
+                inside++;
+                sure &= box_area(Z) >= WHOLE_FACE_AREA * box_area((*out)[k].box) && zp[z] >= presences[k];
+            }
         if (!inside || !sure) continue;
         /* the zoomed face takes the first place it covers; the others it covers go */
         int kept = 0, placed = 0;
         for (int k = 0; k < *count; k++) {
-            const float *b = (*out)[k].box, cx = 0.5f * (b[0] + b[2]), cy = 0.5f * (b[1] + b[3]);
-            const int covered = !(cx < Z[0] || cx > Z[2] || cy < Z[1] || cy > Z[3]);
-            if (covered && placed) {
+            if (centre_inside((*out)[k].box, Z)) {
                 hd_aligned_face_free(&(*out)[k]);
-                continue;
-            }
-            if (covered) {
-                hd_aligned_face_free(&(*out)[k]);
+                if (placed) continue;
                 (*out)[k] = zf[z];
                 memset(&zf[z], 0, sizeof zf[z]);
                 placed = 1;
@@ -515,19 +513,15 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
     hd_aligned_face *out = NULL;
     hd_status last = HD_OK;
     if ((st = hd_face_detector_find(aligner->detector, p3, min_score, min_face, &boxes, &nboxes))) goto done;
-    float *presences = nboxes > 0 ? hd_malloc((size_t)nboxes * sizeof *presences) : NULL;
-    if (nboxes > 0 && !presences) {
-        st = HD_ERR_NOMEM;
-        goto done;
-    }
-    st = fit_boxes(aligner, canonical, p3, p3, size, boxes, nboxes, &out, count, presences, &dropped, &last);
+    float *presences = NULL;
+    st = fit_boxes(aligner, canonical, p3, p3, size, boxes, nboxes, &out, count, &presences, &dropped, &last);
     if (st == HD_OK && *count > 0) st = prefer_whole_faces(aligner, canonical, min_score, p3, size, &out, count, presences);
     free(presences);
     /* what the pyramid found in a tight crop may be no face (the landmark model doubts it) while the
      * face itself, without context, scored under the threshold: the zoom-out of the crop */
     if (st == HD_OK && *count == 0 && nboxes > 0) {
         int more = 0;
-        st = refind(aligner, canonical, min_score, min_face, p3, p3, size, 1, &boxes, &more, &out, count, &dropped,
+        st = refind(aligner, canonical, min_score, min_face, p3, p3, size, 1, &boxes, &more, &out, count, NULL, &dropped,
                     &last);
         nboxes += more;
     }
@@ -539,11 +533,11 @@ static hd_status runner_run(align_runner *aligner, const hd_mesh *canonical, flo
         if ((st = lift_shadows(p3, &lifted))) goto done;
         int more = 0;
         st = refind(aligner, canonical, min_score, min_face, &lifted, p3, size, 0, &boxes, &more, &out, count,
-                    &dropped, &last);
+                    NULL, &dropped, &last);
         nboxes += more;
         if (st == HD_OK && *count == 0) {
             st = refind(aligner, canonical, min_score, min_face, &lifted, p3, size, 1, &boxes, &more, &out, count,
-                        &dropped, &last);
+                        NULL, &dropped, &last);
             nboxes += more;
         }
         hd_image_free(&lifted);

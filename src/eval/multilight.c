@@ -519,9 +519,10 @@ static hd_status write_sheet(const run *R, const subject *S, const hd_image *fro
 
 /* The model's normals (maps->normal, the first face's) against photometric stereo's over the face
  * (maps->mask), with a flat map's and the coarse normals' (the canonical mesh posed on the
- * landmarks, what the model starts from): each subject's mean angle into R's three lists.
+ * landmarks, what the model starts from): subject s's mean angle into R's three lists, and the
+ * model's also into the subject's own.
  * ps_normal, when allocated, receives photometric stereo's normals for the sheet. */
-static hd_status score_normals(run *R, const hd_ps *ps, const hd_photo_maps *maps, size_t P, hd_image *ps_normal)
+static hd_status score_normals(run *R, int s, const hd_ps *ps, const hd_photo_maps *maps, size_t P, hd_image *ps_normal)
 {
     const float *mask = maps->mask.data;
     hd_image coarse = {0}, coarse_cover = {0};
@@ -545,6 +546,7 @@ static hd_status score_normals(run *R, const hd_ps *ps, const hd_photo_maps *map
         sum += angle_deg(mn, t), flat += angle_deg(z, t), crs += angle_deg(cn, t), cnt++;
     }
     if (st == HD_OK && cnt > 0) st = push(&R->normals, sum / (double)cnt);
+    if (st == HD_OK && cnt > 0) st = push(&R->subj[s].normals, sum / (double)cnt);
     if (st == HD_OK && cnt > 0) st = push(&R->normals_flat, flat / (double)cnt);
     if (st == HD_OK && cnt > 0) st = push(&R->normals_coarse, crs / (double)cnt);
     hd_image_free(&coarse), hd_image_free(&coarse_cover);
@@ -610,9 +612,7 @@ static hd_status score_subject(run *R, int s, int *scored)
     float *mask = found ? maps.mask.data : NULL, *pred = hd_malloc((P ? P : 1) * sizeof(float));
     if (st == HD_OK && !pred) st = HD_ERR_NOMEM;
     if (st == HD_OK && found && R->o->sheets) st = hd_image_alloc(&ps_normal, frontal.width, frontal.height, 3);
-    const long had = R->normals.n;
-    if (st == HD_OK && found) st = score_normals(R, &ps, &maps, P, &ps_normal);
-    if (st == HD_OK && R->normals.n > had) st = push(&R->subj[s].normals, R->normals.v[R->normals.n - 1]);
+    if (st == HD_OK && found) st = score_normals(R, s, &ps, &maps, P, &ps_normal);
     /* the input unchanged and the bound, per target light */
     for (int j = 0; j < L && st == HD_OK && found; j++) {
         if (S->target[j] < 0 || !truths[j].data) continue;
