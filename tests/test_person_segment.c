@@ -304,6 +304,50 @@ static void test_body_weight(hd_aligner *al, hd_model *model, const char *path)
     body_free(&c);
 }
 
+/* The body's normals (hd_head with the body) follow the person's outline: just under the top of
+ * each shoulder (1.8 to 3 eye distances to the side, the first pixel the network is sure of below
+ * the chin) they face up and outward, and the chest's middle faces the camera. A vertical cylinder
+ * standing for the chest gave the shoulders' tops sideways normals, a little down (London 001: up
+ * -0.06 on average, the astronaut -0.16; now 0.57 and 0.27), and under a side light the whole side
+ * of a shirt one grey block. */
+static void test_body_normals(hd_aligner *al, hd_model *model, const char *path)
+{
+    body_case c;
+    if (body_setup(al, model, path, HD_HEAD_BODY_ALL, &c)) {
+        const hd_head *h = &c.h;
+        const size_t N = (size_t)h->w * h->h;
+        double up = 0, out = 0, front = 0;
+        int tops = 0, middle = 0;
+        for (int x = h->x0; x < h->x0 + h->w; x++) {
+            const int y_eyes = (int)c.fr.my;
+            const float side = hd_face_side(&c.fr, x, y_eyes);
+            if (fabsf(side) < 1.8f || fabsf(side) > 3.0f) continue;
+            for (int y = h->y0; y < h->y0 + h->h; y++) {
+                if (-hd_face_height(&c.fr, x, y) < 1.5f || at(&c.faces[0], x, y) < 1.0f) continue;
+                const int yy = y + (int)(0.1f * c.fr.e);
+                if (yy < h->y0 + h->h) {
+                    const size_t i = (size_t)(yy - h->y0) * h->w + (size_t)(x - h->x0);
+                    up += h->normal[N + i], out += (side > 0 ? 1 : -1) * h->normal[i], tops++;
+                }
+                break;
+            }
+        }
+        for (int y = h->y0; y < h->y0 + h->h; y++)
+            for (int x = h->x0; x < h->x0 + h->w; x++) {
+                const float depth = -hd_face_height(&c.fr, x, y), side = fabsf(hd_face_side(&c.fr, x, y));
+                if (depth > 3.0f && depth < 3.5f && side < 0.3f && at(&c.faces[0], x, y) >= 1.0f)
+                    front += h->normal[2 * N + (size_t)(y - h->y0) * h->w + (size_t)(x - h->x0)], middle++;
+            }
+        up /= tops > 0 ? tops : 1, out /= tops > 0 ? tops : 1, front /= middle > 0 ? middle : 1;
+        printf("%s: the shoulders' tops: up %.2f, outward %.2f (%d columns); the chest's middle faces the camera %.3f "
+               "(%d pixels)\n",
+               path, up, out, tops, front, middle);
+        CHECK(tops > 50 && up > 0.2 && out > 0.1);
+        CHECK(middle > 100 && front > 0.95);
+    }
+    body_free(&c);
+}
+
 /* The body near the neck (HD_HEAD_BODY_NEAR, the background kept): the neck's change goes on down,
  * whole, on every sure pixel of the person just below it (skin or collar alike: on a skin test
  * alone it ended in blotches where a pale chest failed it), and ends inside the person: nothing
@@ -494,9 +538,11 @@ int main(void)
             snprintf(path, sizeof path, "%s/faces-london/001/neutral.jpg", td ? td : "tests/data");
             test_body_weight(al, model, path);
             test_body_near(al, model, path);
+            test_body_normals(al, model, path);
             snprintf(path, sizeof path, "%s/examples/astronaut.png", test_source_dir());
             test_body_weight(al, model, path);
             test_body_near(al, model, path);
+            test_body_normals(al, model, path);
             hd_model_free(model);
         }
         hd_aligner_free(al);

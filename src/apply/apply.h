@@ -91,8 +91,8 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
 
 /* Applies a log-ratio field (1 or 3 planes, at the image's size) to image with feather weights w
  * (may be NULL: all ones): out = image * exp(w * (log_ratio + log k)), k the brightness factor
- * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the mean luminance weighted by level,
- * over the pixels where w > 0; level NULL: w),
+ * (1 for HD_BRIGHTNESS_FREE; for KEEP the one that keeps the mean luminance weighted by level of
+ * the picture relit with weights level, over the pixels where w > 0; level NULL: w),
  * limited per pixel so that no channel passes 1 (one factor for the pixel, so the colour is kept).
  * Where w is 0 the output is the input bit for bit. out is image's own copy, changed in place.
  * offset (may be NULL) gets log k. */
@@ -168,8 +168,9 @@ typedef struct hd_head {
 enum { HD_HEAD_BODY_NONE = 0, HD_HEAD_BODY_NEAR = 1, HD_HEAD_BODY_ALL = 2 };
 /* Sets up face f's head (d: its decomposition, at the model's size; source: its own light; guard
  * as hd_ratio_field's). body (HD_HEAD_BODY_*, with the face's person segmentation only): what of the
- * person below the chin takes the change too, on a torso proxy. Without a frame (degenerate
- * landmarks) h stays empty, and hd_head_apply leaves the face's field alone. Free with hd_head_free. */
+ * person below the chin takes the change too, on its own normals (its outline rounded off). Without
+ * a frame (degenerate landmarks) h stays empty, and hd_head_apply leaves the face's field alone. Free
+ * with hd_head_free. */
 hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, const hd_image *photo,
                        const float source[HD_SH_COEFFS], float guard, int body, hd_head *h);
 void hd_head_free(hd_head *h);
@@ -184,6 +185,9 @@ hd_status hd_head_weight(hd_head *h, float *weight);
 hd_status hd_head_level(const hd_head *h, const float *weight, float **level);
 /* How much photo pixel (x, y) lies in h's body (0 .. 1; 0 outside it or without the body). */
 float hd_head_body_zone(const hd_head *h, int x, int y);
+/* The person's share of photo pixel (x, y) where h's body reaches (its outline refined to the
+ * photo's edges, head.c's body_outline); -1 beyond the body's zone or without the body. */
+float hd_head_body_person(const hd_head *h, int x, int y);
 /* How much of photo pixel (x, y) is the background by the head's own masks (1: its colour test and
  * the region grown from the window's edge, the wall between curls; on the person's outline, a
  * strand's edge, the background's share of the pixel; 0 outside the head's own window). */

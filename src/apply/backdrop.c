@@ -25,15 +25,18 @@ hd_status hd_backdrop_add_person(const hd_aligned_face *f, const float *weight, 
     if (!map) return HD_ERR_NOMEM;
     hd_person_map_max(f, W, H, 1, map);
     /* in the head's body the weights are the person, the map's outline refined to the photo's
-     * edges (head.c): the raw map's soft edge would keep a rim of the wall unchanged; in the head,
-     * what its masks call the background (the wall seen between curls, which the network's coarse
+     * edges (head.c): the raw map's soft edge would keep a rim of the wall unchanged; where the
+     * body's zone fades (beside the shoulders) the refined person, not the raw map, shares the
+     * outline with the wall too, so the outline is the photo's there as well; in the head, what
+     * its masks call the background (the wall seen between curls, which the network's coarse
      * map takes for the person) is the wall's: else it took neither the head's change nor the
      * wall's, a patch of the old light beside the neck (London 001) */
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * W + x;
             const float w = weight[p] > 1.0f ? 1.0f : weight[p];
-            const float m = map[p] * (1.0f - hd_head_body_zone(head, x, y)) * (1.0f - hd_head_background(head, x, y));
+            const float body = hd_head_body_person(head, x, y), person = body >= 0 ? body : map[p];
+            const float m = person * (1.0f - hd_head_body_zone(head, x, y)) * (1.0f - hd_head_background(head, x, y));
             const float v = w > m ? w : m;
             if (v > people[p]) people[p] = v;
         }

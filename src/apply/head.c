@@ -23,11 +23,11 @@
  * distances outside the mesh's edge. A face aligned without the segmentation (from given
  * landmarks) is told from its background by colour alone.
  * With the body (hd_head_init's body, HD_HEAD_BODY_ALL: the background is relit too, backdrop.c)
- * the person below the chin, clothes and all, takes the change on a torso proxy: the network's
- * person, its outline refined to the photo's edges by a guided filter (body_outline), is the body's
- * weight, with no colour test (a white shirt before a pale wall). The head's own masks are computed
- * on the head's window alone, so they, and the head's change, are the same with the body or
- * without; the kept brightness is the head's and the body's near the neck (hd_head_level), not the
+ * the person below the chin, clothes and all, takes the change on its own normals (its outline
+ * rounded off, body_normals): the network's person, its outline refined to the photo's edges by a
+ * guided filter (body_outline), is the body's weight, with no colour test (a white shirt before a
+ * pale wall). The head's own masks are computed on the head's window alone, so they, and the head's
+ * change, are the same with the body or without; the kept brightness is the head's and the body's near the neck (hd_head_level), not the
  * rest of the clothes'. With the background kept (HD_HEAD_BODY_NEAR) only the body near the neck
  * takes the change, fading out down the chest and toward the shoulders before the person's outline
  * (neck_reach): the neck's change goes on down a bare chest and a collar instead of ending in a band
@@ -55,14 +55,18 @@ static const float SKULL_C[3] = {0.0f, 3.0f, -4.5f}, SKULL_A[3] = {7.9f, 10.5f, 
 #define NECK_BOTTOM -12.0f
 #define NECK_FADE 6.0f
 /* The body below the neck (with the face's segmentation only): a vertical elliptic cylinder, the
- * chest and shoulders (TORSO_A: half the shoulders' width and the chest's depth), whose normals take
- * over from the neck's from TORSO_TOP down over TORSO_BLEND cm. Every pixel of the person there,
- * skin, clothes or hair alike, takes the change on them (hd_head_weight): the network, not the
- * colour, tells the person from the background (a white shirt before a pale wall), and no material
- * edge (a neckline) is a step of the change. */
+ * chest and shoulders (TORSO_A: half the shoulders' width and the chest's depth), whose reach is the
+ * body's (its normals are the person's outline rounded off, body_normals; they take over from the
+ * neck's from TORSO_TOP down over TORSO_BLEND cm). Every pixel of the person there, skin, clothes
+ * or hair alike, takes the change on them (hd_head_weight): the network, not the colour, tells the
+ * person from the background (a white shirt before a pale wall), and no material edge (a neckline)
+ * is a step of the change. */
 static const float TORSO_C[3] = {0.0f, 0.0f, -6.0f}, TORSO_A[3] = {18.0f, 0.0f, 10.0f};
 #define TORSO_TOP -11.0f
 #define TORSO_BLEND 5.0f
+/* The body's normals are rounded off toward the person's outline over about this many eye
+ * distances (body_normals). */
+#define BODY_ROUND 0.4f
 /* The body's weight fades out from the torso's radius 1 to TORSO_REACH: far enough that the
  * network's person, not the proxy, ends the body (at 1.8 a pale stripe of the old light ran down
  * a wide shirt or an arm where the weight faded inside the person: London 068 and 022, the
@@ -87,6 +91,11 @@ static const float TORSO_C[3] = {0.0f, 0.0f, -6.0f}, TORSO_A[3] = {18.0f, 0.0f, 
 #define CHEST_EDGE 0.3f
 #define BODY_GUIDE 0.04f      /* the guided filter's scale (eye distances) ... */
 #define BODY_GUIDE_EPS 1e-3f  /* ... and its regulariser (luminance squared) */
+/* The body's outline: the guided map q ramped from BODY_LEAST to PERSON_SURE (an outline pixel's mix
+ * of shirt and wall takes about its share of the shirt's change: ramped from PERSON_LEAST, a pixel
+ * 70 % shirt took 40 %, a pale line over a darkened shoulder; from 0.05, the filter's low tail took
+ * the wall beside a lit shoulder by turns, a ragged fringe; London tuning 012 and 029, preset 3). */
+#define BODY_LEAST 0.3f
 /* How far the change reaches beyond the proxy's silhouette, as its normalised radius (1: on it). */
 #define SKIN_REACH_SKULL 1.25f /* the ears, a fuller face than the proxy */
 #define SKIN_REACH_NECK 1.5f
@@ -220,10 +229,10 @@ static void quadric_normal(const hd_aligned_face *f, const float P[3], const flo
 }
 
 /* The proxy at photo pixel (x, y): its normal and the skull's and the neck's normalised radii;
- * with torso, the torso's normal takes over from the head's below TORSO_TOP, and *torso is 1 within
- * the torso's silhouette, fading to 0 at TORSO_REACH. */
+ * with torso, *torso is 1 within the torso's silhouette, fading to 0 at TORSO_REACH, and the body's
+ * normal nb (body_normals; NULL: none) takes over from the head's below TORSO_TOP. */
 static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *rho_skull, float *rho_neck,
-                     float *torso)
+                     float *torso, const float nb[3])
 {
     static const float NECK_C[3] = {0.0f, 0.0f, NECK_Z}, NECK_A[3] = {NECK_R, 0.0f, NECK_R};
     const ray r = ray_of(f, x + 0.5f, y + 0.5f);
@@ -239,15 +248,14 @@ static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *
     if (skull) quadric_normal(f, Ps, SKULL_C, SKULL_A, n);
     else quadric_normal(f, Pn, NECK_C, NECK_A, n);
     if (!torso) return;
-    float tt, rt, Pt[3], nt[3];
+    float tt, rt, Pt[3];
     cross(&r, TORSO_C, TORSO_A, &tt, &rt);
     for (int k = 0; k < 3; k++) Pt[k] = r.p0[k] + tt * r.v[k];
     const float below = hd_field_smoothstep((TORSO_TOP - Pt[1]) / TORSO_BLEND);
     *torso = 1.0f - hd_field_smoothstep((rt - 1.0f) / (TORSO_REACH - 1.0f));
-    if (!(below > 0)) return;
-    quadric_normal(f, Pt, TORSO_C, TORSO_A, nt);
+    if (!(below > 0) || !nb) return;
     float len = 0;
-    for (int k = 0; k < 3; k++) n[k] += below * (nt[k] - n[k]), len += n[k] * n[k];
+    for (int k = 0; k < 3; k++) n[k] += below * (nb[k] - n[k]), len += n[k] * n[k];
     len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
     for (int k = 0; k < 3; k++) n[k] *= len;
 }
@@ -290,6 +298,66 @@ static float person_below(const hd_aligned_face *f, int x, int y)
     y = y > last ? last : y;
     x = x < f->person_x0 ? f->person_x0 : x >= f->person_x0 + m->width ? f->person_x0 + m->width - 1 : x;
     return person_at(f, x, y);
+}
+
+/* The body's normals over h's window (3 planes), rounded off toward the person's outline: the
+ * network's person (person_below, cut at PERSON_LEAST) blurred by BODY_ROUND eye distances is a
+ * smooth height whose gradient turns the normal outward from the outline, from facing the camera
+ * inside the body to PROXY_FACING on the outline itself, across the outline (so the top of a
+ * shoulder faces up and an arm's side sideways). A cylinder standing for the chest gave the whole
+ * side of a shirt one normal: under a side light one grey block, or, faded toward the shoulders
+ * with the background kept, a grey smudge on a white shirt. Blurred over the whole photo on a
+ * k-times coarser grid (the blur is wide), its gradient interpolated back bilinearly: the same
+ * normals whatever the window (the body near the neck or all of it); the photo's edge is not an
+ * outline (the clamped blur carries the body on past it, as the person goes on). */
+static hd_status body_normals(const hd_head *h, const hd_aligned_face *f, float *nb)
+{
+    const size_t N = (size_t)h->w * h->h;
+    const float sigma = fmaxf(2.0f, BODY_ROUND * h->frame.e);
+    const int k = sigma > 8.0f ? (int)(sigma / 4.0f) : 1;
+    const int cw = (h->W + k - 1) / k, ch = (h->H + k - 1) / k;
+    const size_t C = (size_t)cw * ch;
+    float *m = hd_calloc(C, sizeof(float)), *cnt = hd_calloc(C, sizeof(float));
+    float *gx = hd_malloc(C * sizeof(float)), *gy = hd_malloc(C * sizeof(float));
+    hd_status st = m && cnt && gx && gy ? HD_OK : HD_ERR_NOMEM;
+    for (int y = 0; st == HD_OK && y < h->H; y++)
+        for (int x = 0; x < h->W; x++) {
+            const size_t c = (size_t)(y / k) * cw + (size_t)(x / k);
+            m[c] += person_below(f, x, y) >= PERSON_LEAST ? 1.0f : 0.0f, cnt[c] += 1.0f;
+        }
+    for (size_t c = 0; st == HD_OK && c < C; c++) m[c] /= cnt[c];
+    if (st == HD_OK) st = hd_field_blur(m, cw, ch, sigma / (float)k);
+    /* the gradient per photo pixel, scaled so that a straight outline's is 1 where it is steepest
+     * (1 / (sigma sqrt(2 pi)) there) */
+    const float scale = sigma * 2.5066283f / (float)k;
+    for (int y = 0; st == HD_OK && y < ch; y++)
+        for (int x = 0; x < cw; x++) {
+            const int xl = x > 0 ? x - 1 : x, xr = x < cw - 1 ? x + 1 : x;
+            const int yu = y > 0 ? y - 1 : y, yd = y < ch - 1 ? y + 1 : y;
+            const size_t c = (size_t)y * cw + x;
+            gx[c] = xr > xl ? scale * (m[(size_t)y * cw + xr] - m[(size_t)y * cw + xl]) / (float)(xr - xl) : 0.0f;
+            gy[c] = yd > yu ? scale * (m[(size_t)yd * cw + x] - m[(size_t)yu * cw + x]) / (float)(yd - yu) : 0.0f;
+        }
+    const float most = sqrtf(1.0f - PROXY_FACING * PROXY_FACING);
+    for (int y = 0; st == HD_OK && y < h->h; y++)
+        for (int x = 0; x < h->w; x++) {
+            float u = ((float)(x + h->x0) + 0.5f) / (float)k - 0.5f, v = ((float)(y + h->y0) + 0.5f) / (float)k - 0.5f;
+            u = u < 0 ? 0 : u > cw - 1 ? (float)(cw - 1) : u, v = v < 0 ? 0 : v > ch - 1 ? (float)(ch - 1) : v;
+            const int x0 = (int)u, y0 = (int)v, x1 = x0 + 1 < cw ? x0 + 1 : x0, y1 = y0 + 1 < ch ? y0 + 1 : y0;
+            const float a = u - (float)x0, b = v - (float)y0;
+            const size_t c00 = (size_t)y0 * cw + x0, c01 = (size_t)y0 * cw + x1;
+            const size_t c10 = (size_t)y1 * cw + x0, c11 = (size_t)y1 * cw + x1;
+            const float dx = (1 - b) * ((1 - a) * gx[c00] + a * gx[c01]) + b * ((1 - a) * gx[c10] + a * gx[c11]);
+            const float dy = (1 - b) * ((1 - a) * gy[c00] + a * gy[c01]) + b * ((1 - a) * gy[c10] + a * gy[c11]);
+            /* outward is down the gradient; the photo's y runs down, the normal's up */
+            float nx = -dx * most, ny = dy * most;
+            const float t = sqrtf(nx * nx + ny * ny);
+            if (t > most) nx *= most / t, ny *= most / t;
+            const size_t i = (size_t)y * h->w + x;
+            nb[i] = nx, nb[N + i] = ny, nb[2 * N + i] = sqrtf(fmaxf(0.0f, 1.0f - nx * nx - ny * ny));
+        }
+    free(m), free(cnt), free(gx), free(gy);
+    return st;
 }
 
 /* The background's colour: medians and deviations of chroma and log luminance over the photo's
@@ -470,7 +538,7 @@ static hd_status outline_share(const hd_head *h, const hd_aligned_face *f, const
 
 /* The body's outline (h->body holds the torso's reach below the chin): the network's map (carried
  * on down below its window) refined to the photo's own edges by a guided filter (He, Sun and Tang,
- * ECCV 2010) on the luminance, then ramped as the head's outline (PERSON_LEAST to PERSON_SURE).
+ * ECCV 2010) on the luminance, then ramped from BODY_LEAST to PERSON_SURE.
  * The map's pixels are two or three of the photo's: alone, its soft edge reached into the wall (a
  * dark rim above a shoulder) or, cut where it is sure, stopped short of a white shirt's edge against
  * a pale wall, in steps; the colour test cannot tell that shirt from that wall at all. */
@@ -499,8 +567,13 @@ static hd_status body_outline(hd_head *h, const hd_aligned_face *f, const hd_ima
     }
     if (st == HD_OK) st = hd_field_blur(II, h->w, h->h, sigma);
     if (st == HD_OK) st = hd_field_blur(Ip, h->w, h->h, sigma);
+    /* where the network is sure there is no person (PERSON_NONE) the wall stays the wall's: the
+     * filter's low tail reaches a few pixels into it */
     for (size_t i = 0; st == HD_OK && i < N; i++)
-        if (h->body[i] > 0) h->body[i] *= hd_field_smoothstep((II[i] * I[i] + Ip[i] - PERSON_LEAST) / (PERSON_SURE - PERSON_LEAST));
+        if (h->body[i] > 0)
+            h->body[i] *= p[i] < PERSON_NONE ? 0.0f
+                                             : hd_field_smoothstep((II[i] * I[i] + Ip[i] - BODY_LEAST) /
+                                                                   (PERSON_SURE - BODY_LEAST));
     free(I), free(p), free(mI), free(mp), free(II), free(Ip);
     return st;
 }
@@ -758,7 +831,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     for (int y = 0; y < H; y += stride)
         for (int x = 0; x < W; x += stride) {
             float n[3], rs, rn, torso = 0.0f;
-            proxy_at(f, x, y, n, &rs, &rn, torso_on ? &torso : NULL);
+            proxy_at(f, x, y, n, &rs, &rn, torso_on ? &torso : NULL, NULL);
             const int head = rs <= (f->person.data ? HAIR_REACH_PERSON : SKIN_REACH_SKULL) || rn <= SKIN_REACH_NECK;
             const float depth = -hd_face_height(&h->frame, x, y);
             const int near = body == HD_HEAD_BODY_ALL ||
@@ -786,12 +859,13 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
     h->wb = torso_on && body == HD_HEAD_BODY_ALL ? hd_calloc(N, sizeof(float)) : NULL;
     h->share = hd_malloc(N * sizeof(float));
     float *rho = hd_malloc(2 * N * sizeof(float)), *cover = hd_malloc(P * sizeof(float));
-    float *nblend = hd_malloc(P * sizeof(float));
+    float *nblend = hd_malloc(P * sizeof(float)), *nb = torso_on ? hd_malloc(3 * N * sizeof(float)) : NULL;
     hd_image nw = {0}, cov = {0};
     st = h->normal && h->proxy && h->mesh && h->skin && h->hair && h->bg && h->body && h->zone && h->share &&
-                 (h->wb || !torso_on || body != HD_HEAD_BODY_ALL) && rho && cover && nblend
+                 (h->wb || !torso_on || body != HD_HEAD_BODY_ALL) && rho && cover && nblend && (nb || !torso_on)
              ? HD_OK
              : HD_ERR_NOMEM;
+    if (st == HD_OK && torso_on) st = body_normals(h, f, nb);
     /* the model's normals in the photo, extended past the mesh's edge */
     if (st == HD_OK) st = hd_warp_back(f, &d->normal, NULL, &nw, &cov);
     if (st == HD_OK) {
@@ -807,7 +881,8 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x, p = photo_index(h, x, y);
             float n[3], torso = 0.0f;
-            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1], torso_on ? &torso : NULL);
+            const float nbi[3] = {nb ? nb[i] : 0, nb ? nb[N + i] : 0, nb ? nb[2 * N + i] : 1};
+            proxy_at(f, x + x0, y + y0, n, &rho[2 * i], &rho[2 * i + 1], torso_on ? &torso : NULL, nb ? nbi : NULL);
             /* the body: the person (the network's map, carried on down below its window) on the
              * torso, its soft edge ramped as the outline's (PERSON_LEAST to PERSON_SURE) */
             const float low = hd_field_smoothstep((-hd_face_height(&h->frame, x + x0, y + y0) - BODY_FROM) /
@@ -837,7 +912,7 @@ hd_status hd_head_init(const hd_aligned_face *f, const hd_decomposition *d, cons
                                                  (HAIR_OVER_TO - HAIR_OVER_FROM));
             h->mesh[i] *= 1.0f - up * h->hair[i];
         }
-    free(rho), free(cover), free(nblend), free(mesh_full);
+    free(rho), free(cover), free(nblend), free(nb), free(mesh_full);
     hd_image_free(&nw), hd_image_free(&cov);
     if (st != HD_OK) hd_head_free(h);
     return st;
@@ -933,6 +1008,15 @@ float hd_head_body_zone(const hd_head *h, int x, int y)
     if (!h || !h->zone) return 0.0f;
     x -= h->x0, y -= h->y0;
     return x < 0 || y < 0 || x >= h->w || y >= h->h ? 0.0f : h->zone[(size_t)y * h->w + x];
+}
+
+float hd_head_body_person(const hd_head *h, int x, int y)
+{
+    if (!h || !h->zone) return -1.0f;
+    x -= h->x0, y -= h->y0;
+    if (x < 0 || y < 0 || x >= h->w || y >= h->h) return -1.0f;
+    const size_t i = (size_t)y * h->w + x;
+    return h->zone[i] > 1e-6f ? fminf(1.0f, h->body[i] / h->zone[i]) : -1.0f;
 }
 
 float hd_head_background(const hd_head *h, int x, int y)

@@ -216,9 +216,10 @@ hd_status hd_ratio_field(const hd_decomposition *d, const hd_image *mask, int si
     return st;
 }
 
-/* The lw-weighted mean luminance of the relit pixels (idx; weights w) for brightness offset t, unclamped. */
-static double relit_lum(const hd_image *lr, const float *w, const float *lw, const hd_image *im, const size_t *idx,
-                        size_t n, double t)
+/* The lw-weighted mean luminance of the pixels idx relit with weights lw (the picture whose
+ * brightness is kept: with the body relit, the one with the body near the neck alone) for brightness
+ * offset t, unclamped. */
+static double relit_lum(const hd_image *lr, const float *lw, const hd_image *im, const size_t *idx, size_t n, double t)
 {
     const size_t P = (size_t)im->width * (size_t)im->height;
     double acc = 0;
@@ -226,7 +227,7 @@ static double relit_lum(const hd_image *lr, const float *w, const float *lw, con
         size_t p = idx[i];
         for (int c = 0; c < 3; c++) {
             const float *l = lr->data + (size_t)(lr->channels == 3 ? c : 0) * P;
-            acc += lw[p] * LUMA[c] * im->data[c * P + p] * exp(w[p] * (l[p] + t));
+            acc += lw[p] * LUMA[c] * im->data[c * P + p] * exp(lw[p] * (l[p] + t));
         }
     }
     return acc;
@@ -271,7 +272,7 @@ hd_status hd_ratio_apply(const hd_image *log_ratio, const float *weight, const f
         double lo = -4.0, hi = 4.0;
         for (int it = 0; it < 50 && goal > 0; it++) {
             double mid = 0.5 * (lo + hi);
-            if (relit_lum(log_ratio, weight, level, image, idx, n, mid) < goal) lo = mid;
+            if (relit_lum(log_ratio, level, image, idx, n, mid) < goal) lo = mid;
             else hi = mid;
         }
         t = goal > 0 ? 0.5 * (lo + hi) : 0.0;
