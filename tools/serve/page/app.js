@@ -470,7 +470,8 @@
     const ww = Math.max(1, wx1 - wx0), wh = Math.max(1, wy1 - wy0);
     const m = { W, H, n: count, base: photo, weight, out: new ImageData(new Uint8ClampedArray(photo.data), W, H),
       px: new Int32Array(count), rgb: new Float32Array(3 * count), w: new Float32Array(count),
-      level: new Uint8Array(count), top: new Float32Array(count), wLum: new Float32Array(count), goal: 0,
+      level: new Uint8Array(count), lq: new Uint8Array(count), top: new Float32Array(count),
+      wLum: new Float32Array(count), goal: 0,
       nrm: new Float32Array(3 * count), src: new Float32Array(count), guard: new Float32Array(count),
       face: new Int16Array(count), skin: new Uint8Array(count), cell: new Int32Array(count), depth,
       scale: faces.map((f) => f.scale), shadow: new Uint8Array(count),
@@ -493,8 +494,8 @@
       m.level[j] = weight.data[4 * p];
       m.w[j] = m.level[j] / 255;
       m.top[j] = Math.max(m.rgb[3 * j], m.rgb[3 * j + 1], m.rgb[3 * j + 2]);
-      m.wLum[j] = (level ? level.data[4 * p] / 255 : m.w[j]) *
-        (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
+      m.lq[j] = level ? level.data[4 * p] : m.level[j];
+      m.wLum[j] = m.lq[j] / 255 * (0.2126 * m.rgb[3 * j] + 0.7152 * m.rgb[3 * j + 1] + 0.0722 * m.rgb[3 * j + 2]);
       m.goal += m.wLum[j];
       m.face[j] = k;
       if (k >= 0 && skin.data[4 * p] > 0) {
@@ -635,15 +636,19 @@
       for (let q = 0; q < 256; q++) E[q] = Math.exp(q / 255 * t);
     };
     for (let j = 0; j < m.n; j++) e[j] = Math.exp(m.w[j] * L[j]);
+    // the kept brightness is the level's picture's, relit with the level's weights (hd_ratio_apply):
+    // with the background relit, the body beyond the neck's reach left out (lq: the level, else w)
+    const eq = new Float32Array(m.n);
+    for (let j = 0; j < m.n; j++) eq[j] = m.lq[j] === m.level[j] ? e[j] : Math.exp(m.lq[j] / 255 * L[j]);
     let t = 0;
     if (ui.keep.checked && m.goal > 0)
-      for (let it = 0; it < 6; it++) { // Newton on sum level lum exp(w (L + t)) = goal (level: w, or w without the body)
+      for (let it = 0; it < 6; it++) { // Newton on sum level lum exp(level (L + t)) = goal (level: w, or w without the body)
         let f = 0, df = 0;
         table(t);
         for (let j = 0; j < m.n; j++) {
-          const v = m.wLum[j] * e[j] * E[m.level[j]];
+          const v = m.wLum[j] * eq[j] * E[m.lq[j]];
           f += v;
-          df += m.w[j] * v;
+          df += m.lq[j] / 255 * v;
         }
         if (!(df > 0)) break;
         t -= (f - m.goal) / df;
