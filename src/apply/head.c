@@ -263,6 +263,22 @@ static void proxy_at(const hd_aligned_face *f, int x, int y, float n[3], float *
 /* Window pixel (x, y) of head h as a photo pixel index. */
 static size_t photo_index(const hd_head *h, int x, int y) { return (size_t)(y + h->y0) * h->W + (x + h->x0); }
 
+/* The window index of photo pixel (x, y) of head h, or -1 outside its window (or without the body's
+ * zone). */
+static long body_index(const hd_head *h, int x, int y)
+{
+    if (!h || !h->zone) return -1;
+    x -= h->x0, y -= h->y0;
+    return x < 0 || y < 0 || x >= h->w || y >= h->h ? -1 : (long)y * h->w + x;
+}
+
+/* The person's share of window pixel i where the body's zone reaches it (its outline refined,
+ * body_outline), or -1 beyond the zone. */
+static float body_share(const hd_head *h, size_t i)
+{
+    return h->zone[i] > 1e-6f ? fminf(1.0f, h->body[i] / h->zone[i]) : -1.0f;
+}
+
 /* Medians and tolerances of the features over the window pixels where pick[i] is set. */
 static int stats_of(const float *feat, size_t N, const unsigned char *pick, float *scratch, float med[NFEAT],
                     float mad[NFEAT])
@@ -602,7 +618,7 @@ static hd_status neck_reach(hd_head *h, const hd_aligned_face *f)
     for (int y = 0; st == HD_OK && y < h->h; y++)
         for (int x = 0; x < h->w; x++) {
             const size_t i = (size_t)y * h->w + x;
-            const float share = h->zone[i] > 1e-6f ? h->body[i] / h->zone[i] : person_below(f, x + h->x0, y + h->y0);
+            const float body = body_share(h, i), share = body >= 0 ? body : person_below(f, x + h->x0, y + h->y0);
             inside[i] = share >= 0.5f ? 1.0f : 0.0f;
         }
     if (st == HD_OK) st = hd_field_feather(inside, h->w, h->h, fmaxf(2.0f, CHEST_EDGE * h->frame.e), h->neck);
@@ -1005,18 +1021,14 @@ hd_status hd_head_level(const hd_head *h, const float *weight, float **level)
 
 float hd_head_body_zone(const hd_head *h, int x, int y)
 {
-    if (!h || !h->zone) return 0.0f;
-    x -= h->x0, y -= h->y0;
-    return x < 0 || y < 0 || x >= h->w || y >= h->h ? 0.0f : h->zone[(size_t)y * h->w + x];
+    const long i = body_index(h, x, y);
+    return i < 0 ? 0.0f : h->zone[i];
 }
 
 float hd_head_body_person(const hd_head *h, int x, int y)
 {
-    if (!h || !h->zone) return -1.0f;
-    x -= h->x0, y -= h->y0;
-    if (x < 0 || y < 0 || x >= h->w || y >= h->h) return -1.0f;
-    const size_t i = (size_t)y * h->w + x;
-    return h->zone[i] > 1e-6f ? fminf(1.0f, h->body[i] / h->zone[i]) : -1.0f;
+    const long i = body_index(h, x, y);
+    return i < 0 ? -1.0f : body_share(h, (size_t)i);
 }
 
 float hd_head_background(const hd_head *h, int x, int y)
